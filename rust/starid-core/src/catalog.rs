@@ -1,0 +1,511 @@
+//! The star catalogue: ids, ICRS directions and magnitudes, with parsers for star tables and
+//! for the Hipparcos 2 main catalogue (`hip2.dat`, ESA I/311).
+
+use std::collections::HashSet;
+use std::io::BufRead;
+use std::path::Path;
+
+use nalgebra::Vector3;
+
+use crate::error::{Error, Result};
+use crate::geometry::{radec_to_unit, unit_to_radec};
+use crate::sky::ZoneIndex;
+
+/// Zone height of the catalogue's spatial index.
+const ZONE_HEIGHT_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
+
+/// A star catalogue (struct of arrays) with its spatial index.
+///
+/// Stars keep their input order; a star's *index* is its position here, its *id* the
+/// catalogue's own number (e.g. the HIP number).
+#[derive(Debug, Clone)]
+pub struct Catalog {
+    ids: Vec<i64>,
+    ra_rad: Vec<f64>,
+    dec_rad: Vec<f64>,
+    mag: Vec<f64>,
+    vectors: Vec<Vector3<f64>>,
+    zones: ZoneIndex,
+}
+
+impl Catalog {
+    /// Catalogue from columns in degrees.
+    ///
+    /// # Errors
+    /// `Catalog` when the columns differ in length, are empty, hold non-finite values or a
+    /// declination outside [-90°, 90°], or repeat an id.
+    pub fn new(ids: Vec<i64>, ra_deg: &[f64], dec_deg: &[f64], mag: Vec<f64>) -> Result<Self> {
+        let n = ids.len();
+        if ra_deg.len() != n || dec_deg.len() != n || mag.len() != n {
+            return Err(Error::catalog(
+                None,
+                format!(
+                    "columns differ in length: {} ids, {} ra, {} dec, {} mag",
+                    n,
+                    ra_deg.len(),
+                    dec_deg.len(),
+                    mag.len()
+                ),
+            ));
+        }
+        if n == 0 {
+            return Err(Error::catalog(None, "the catalogue holds no stars"));
+        }
+        if n > u32::MAX as usize / 2 {
+            return Err(Error::catalog(None, format!("too many stars ({n})")));
+        }
+        let mut seen = HashSet::with_capacity(n);
+        for i in 0..n {
+            let (ra, dec, m) = (ra_deg[i], dec_deg[i], mag[i]);
+            if !ra.is_finite() || !dec.is_finite() || !m.is_finite() {
+                return Err(Error::catalog(
+                    None,
+                    format!("star {} (row {i}) has a non-finite ra, dec or mag", ids[i]),
+                ));
+            }
+            if !(-90.0..=90.0).contains(&dec) {
+                return Err(Error::catalog(
+                    None,
+                    format!(
+                        "star {} (row {i}) has declination {dec} outside [-90, 90] degrees",
+                        ids[i]
+                    ),
+                ));
+            }
+            if !seen.insert(ids[i]) {
+                return Err(Error::catalog(
+                    None,
+                    format!("id {} appears more than once", ids[i]),
+                ));
+            }
+        }
+        let vectors: Vec<Vector3<f64>> = ra_deg
+            .iter()
+            .zip(dec_deg)
+            .map(|(&ra, &dec)| radec_to_unit(ra.to_radians(), dec.to_radians()))
+            .collect();
+        Ok(Self::from_vectors(ids, vectors, mag))
+    }
+
+    fn from_vectors(ids: Vec<i64>, vectors: Vec<Vector3<f64>>, mag: Vec<f64>) -> Self {
+        let (ra_rad, dec_rad): (Vec<f64>, Vec<f64>) = vectors.iter().map(unit_to_radec).unzip();
+        let zones = ZoneIndex::new(&vectors, ZONE_HEIGHT_RAD);
+        Self {
+            ids,
+            ra_rad,
+            dec_rad,
+            mag,
+            vectors,
+            zones,
+        }
+    }
+
+    /// Parse a star table: CSV, TSV or whitespace-separated, with a header naming the columns
+    /// `id, ra_deg, dec_deg, mag` (case-insensitive; common aliases such as `hip`, `ra`, `dec`,
+    /// `vmag` accepted; extra columns ignored) or headerless with the columns in that order.
+    /// Blank lines and lines starting with `#` or `%` are skipped.
+    ///
+    /// # Errors
+    /// `Catalog { line }` for a malformed record, `Io` when reading fails.
+    pub fn from_table(reader: impl BufRead) -> Result<Self> {
+        let mut layout: Option<(Delimiter, [usize; 4], usize)> = None;
+        let (mut ids, mut ra, mut dec, mut mag) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (lineno, line) in reader.lines().enumerate() {
+            let lineno = lineno + 1;
+            let line = line?;
+            let line = line.trim_start_matches('\u{feff}').trim();
+            if line.is_empty() || line.starts_with('#') || line.starts_with('%') {
+                continue;
+            }
+            let (delim, cols, min_fields) = match layout {
+                Some(l) => l,
+                None => {
+                    let delim = Delimiter::detect(line);
+                    let fields = delim.split(line);
+                    let l = if fields.iter().take(4).all(|f| f.parse::<f64>().is_ok()) {
+                        if fields.len() < 4 {
+                            return Err(Error::catalog(
+                                Some(lineno),
+                                format!(
+                                    "a headerless table needs 4 columns (id ra_deg dec_deg mag), found {}",
+                                    fields.len()
+                                ),
+                            ));
+                        }
+                        (delim, [0, 1, 2, 3], 4)
+                    } else {
+                        let cols =
+                            header_columns(&fields).map_err(|m| Error::catalog(Some(lineno), m))?;
+                        layout = Some((delim, cols, cols.iter().max().unwrap() + 1));
+                        continue;
+                    };
+                    layout = Some(l);
+                    l
+                }
+            };
+            let fields = delim.split(line);
+            if fields.len() < min_fields {
+                return Err(Error::catalog(
+                    Some(lineno),
+                    format!(
+                        "expected at least {min_fields} fields, found {}",
+                        fields.len()
+                    ),
+                ));
+            }
+            let num = |k: usize, name: &str| -> Result<f64> {
+                fields[cols[k]].parse::<f64>().map_err(|_| {
+                    Error::catalog(
+                        Some(lineno),
+                        format!("{name} {:?} is not a number", fields[cols[k]]),
+                    )
+                })
+            };
+            let id = parse_id(fields[cols[0]]).ok_or_else(|| {
+                Error::catalog(
+                    Some(lineno),
+                    format!("id {:?} is not an integer", fields[cols[0]]),
+                )
+            })?;
+            ids.push(id);
+            ra.push(num(1, "ra_deg")?);
+            dec.push(num(2, "dec_deg")?);
+            mag.push(num(3, "mag")?);
+            let last = ra.len() - 1;
+            if !ra[last].is_finite() || !dec[last].is_finite() || !mag[last].is_finite() {
+                return Err(Error::catalog(
+                    Some(lineno),
+                    "ra_deg, dec_deg and mag must be finite",
+                ));
+            }
+            if !(-90.0..=90.0).contains(&dec[last]) {
+                return Err(Error::catalog(
+                    Some(lineno),
+                    format!("dec_deg {} is outside [-90, 90]", dec[last]),
+                ));
+            }
+        }
+        if ids.is_empty() {
+            return Err(Error::catalog(None, "the table holds no stars"));
+        }
+        Self::new(ids, &ra, &dec, mag)
+    }
+
+    /// Read a star table from a file (see [`Catalog::from_table`]).
+    ///
+    /// # Errors
+    /// As [`Catalog::from_table`]; `Io` when the file cannot be opened.
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let file = std::fs::File::open(path).map_err(|e| {
+            Error::from(std::io::Error::new(
+                e.kind(),
+                format!("{}: {e}", path.display()),
+            ))
+        })?;
+        Self::from_table(std::io::BufReader::new(file))
+    }
+
+    /// Parse the Hipparcos 2 main catalogue (`hip2.dat`, ESA I/311, epoch J1991.25), keep stars
+    /// with Hp magnitude `<= mag_limit` and move each to `epoch_year` (Julian years, e.g. 2000.0)
+    /// along its proper motion (linear space motion on the sphere; parallax and radial velocity
+    /// neglected). Ids are HIP numbers, magnitudes Hp.
+    ///
+    /// # Errors
+    /// `Catalog { line }` for a malformed record, `InvalidInput` for a non-finite limit or epoch.
+    pub fn from_hip2(reader: impl BufRead, mag_limit: f64, epoch_year: f64) -> Result<Self> {
+        if !mag_limit.is_finite() || !epoch_year.is_finite() {
+            return Err(Error::invalid_input("mag_limit and epoch must be finite"));
+        }
+        const MAS_TO_RAD: f64 = std::f64::consts::PI / 180.0 / 3.6e6;
+        let dt = epoch_year - 1991.25;
+        let (mut ids, mut vectors, mut mag) = (Vec::new(), Vec::new(), Vec::new());
+        for (lineno, line) in reader.lines().enumerate() {
+            let line = line?;
+            if line.trim().is_empty() {
+                continue;
+            }
+            let f: Vec<&str> = line.split_whitespace().collect();
+            if f.len() < 20 {
+                return Err(Error::catalog(
+                    Some(lineno + 1),
+                    format!(
+                        "a hip2.dat record has at least 20 fields, found {}",
+                        f.len()
+                    ),
+                ));
+            }
+            let num = |k: usize| -> Result<f64> {
+                f[k].parse::<f64>().map_err(|_| {
+                    Error::catalog(
+                        Some(lineno + 1),
+                        format!("field {} ({:?}) is not a number", k + 1, f[k]),
+                    )
+                })
+            };
+            let hp = num(19)?;
+            if hp > mag_limit {
+                continue;
+            }
+            let id = parse_id(f[0]).ok_or_else(|| {
+                Error::catalog(
+                    Some(lineno + 1),
+                    format!("HIP {:?} is not an integer", f[0]),
+                )
+            })?;
+            let (ra, dec, pm_ra, pm_dec) = (num(4)?, num(5)?, num(7)?, num(8)?);
+            let p = radec_to_unit(ra, dec);
+            let (sr, cr) = ra.sin_cos();
+            let (sd, cd) = dec.sin_cos();
+            let east = Vector3::new(-sr, cr, 0.0);
+            let north = Vector3::new(-sd * cr, -sd * sr, cd);
+            // pmRA in hip2.dat already includes cos(dec).
+            let v = (east * pm_ra + north * pm_dec) * MAS_TO_RAD;
+            ids.push(id);
+            vectors.push((p + v * dt).normalize());
+            mag.push(hp);
+        }
+        if ids.is_empty() {
+            return Err(Error::catalog(
+                None,
+                format!("no Hipparcos star is brighter than Hp {mag_limit}"),
+            ));
+        }
+        Ok(Self::from_vectors(ids, vectors, mag))
+    }
+
+    /// The stars with `mag <= mag_limit`, in their order.
+    ///
+    /// # Errors
+    /// `InvalidInput` when the limit is NaN or keeps no star.
+    pub fn filter_mag(&self, mag_limit: f64) -> Result<Self> {
+        if mag_limit.is_nan() {
+            return Err(Error::invalid_input("mag_limit is NaN"));
+        }
+        let keep: Vec<usize> = (0..self.len())
+            .filter(|&i| self.mag[i] <= mag_limit)
+            .collect();
+        if keep.is_empty() {
+            return Err(Error::invalid_input(format!(
+                "no star is brighter than magnitude {mag_limit}"
+            )));
+        }
+        Ok(self.subset(&keep))
+    }
+
+    /// The stars at `indices`, in that order.
+    ///
+    /// # Panics
+    /// If an index is out of range.
+    pub fn subset(&self, indices: &[usize]) -> Self {
+        Self::from_vectors(
+            indices.iter().map(|&i| self.ids[i]).collect(),
+            indices.iter().map(|&i| self.vectors[i]).collect(),
+            indices.iter().map(|&i| self.mag[i]).collect(),
+        )
+    }
+
+    /// Number of stars.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Whether the catalogue is empty (never true for a constructed catalogue).
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Catalogue ids.
+    pub fn ids(&self) -> &[i64] {
+        &self.ids
+    }
+
+    /// Right ascensions in radians, `[0, 2π)`.
+    pub fn ra_rad(&self) -> &[f64] {
+        &self.ra_rad
+    }
+
+    /// Declinations in radians.
+    pub fn dec_rad(&self) -> &[f64] {
+        &self.dec_rad
+    }
+
+    /// Magnitudes.
+    pub fn mag(&self) -> &[f64] {
+        &self.mag
+    }
+
+    /// ICRS unit vectors.
+    pub fn vectors(&self) -> &[Vector3<f64>] {
+        &self.vectors
+    }
+
+    /// The spatial index over [`Catalog::vectors`].
+    pub fn zones(&self) -> &ZoneIndex {
+        &self.zones
+    }
+
+    /// Indices of the stars within `radius_rad` of `center`.
+    pub fn in_cone(&self, center: &Vector3<f64>, radius_rad: f64) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.zones
+            .for_each_in_cone(&self.vectors, center, radius_rad, |s, _| out.push(s));
+        out
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Delimiter {
+    Comma,
+    Tab,
+    Semicolon,
+    Whitespace,
+}
+
+impl Delimiter {
+    fn detect(line: &str) -> Self {
+        if line.contains(',') {
+            Self::Comma
+        } else if line.contains('\t') {
+            Self::Tab
+        } else if line.contains(';') {
+            Self::Semicolon
+        } else {
+            Self::Whitespace
+        }
+    }
+
+    fn split<'a>(&self, line: &'a str) -> Vec<&'a str> {
+        let clean = |s: &'a str| s.trim().trim_matches('"').trim();
+        match self {
+            Self::Comma => line.split(',').map(clean).collect(),
+            Self::Tab => line.split('\t').map(clean).collect(),
+            Self::Semicolon => line.split(';').map(clean).collect(),
+            Self::Whitespace => line.split_whitespace().map(clean).collect(),
+        }
+    }
+}
+
+fn header_columns(fields: &[&str]) -> std::result::Result<[usize; 4], String> {
+    const NAMES: [(&str, &[&str]); 4] = [
+        (
+            "id",
+            &["id", "hip", "hip_id", "star_id", "catalog_id", "hr", "hd"],
+        ),
+        (
+            "ra_deg",
+            &["ra_deg", "ra", "raj2000", "ra_icrs", "radeg", "ra_j2000"],
+        ),
+        (
+            "dec_deg",
+            &[
+                "dec_deg",
+                "dec",
+                "de",
+                "dej2000",
+                "de_icrs",
+                "decdeg",
+                "dec_j2000",
+                "de_deg",
+            ],
+        ),
+        (
+            "mag",
+            &[
+                "mag",
+                "magnitude",
+                "vmag",
+                "hpmag",
+                "v",
+                "hp",
+                "gmag",
+                "phot_g_mean_mag",
+            ],
+        ),
+    ];
+    let lower: Vec<String> = fields.iter().map(|f| f.to_ascii_lowercase()).collect();
+    let mut cols = [0usize; 4];
+    let mut missing = Vec::new();
+    for (k, (name, aliases)) in NAMES.iter().enumerate() {
+        match aliases
+            .iter()
+            .find_map(|a| lower.iter().position(|f| f == a))
+        {
+            Some(c) => cols[k] = c,
+            None => missing.push(*name),
+        }
+    }
+    if missing.is_empty() {
+        Ok(cols)
+    } else {
+        Err(format!(
+            "the header {:?} lacks the column(s) {}; expected id, ra_deg, dec_deg, mag",
+            fields,
+            missing.join(", ")
+        ))
+    }
+}
+
+fn parse_id(s: &str) -> Option<i64> {
+    if let Ok(v) = s.parse::<i64>() {
+        return Some(v);
+    }
+    // MATLAB and spreadsheets write integers as floats ("12.0", "1.2e1").
+    let v = s.parse::<f64>().ok()?;
+    (v.is_finite() && v.fract() == 0.0 && v.abs() < 9.0e15).then_some(v as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_csv_with_header_and_extra_columns() {
+        let text = "ID,Name,RA_deg,Dec_deg,Mag\n5,a,10.5,-20,3.1\n7,b,350,89.5,5\n";
+        let c = Catalog::from_table(text.as_bytes()).unwrap();
+        assert_eq!(c.ids(), &[5, 7]);
+        assert!((c.ra_rad()[1].to_degrees() - 350.0).abs() < 1e-9);
+        assert_eq!(c.mag(), &[3.1, 5.0]);
+    }
+
+    #[test]
+    fn parses_headerless_whitespace_and_tsv() {
+        let c = Catalog::from_table("1 0 0 1.0\n2.0 1 1 2\n".as_bytes()).unwrap();
+        assert_eq!(c.ids(), &[1, 2]);
+        let c = Catalog::from_table("id\tra\tdec\tvmag\n1\t0\t0\t1\n".as_bytes()).unwrap();
+        assert_eq!(c.len(), 1);
+    }
+
+    #[test]
+    fn reports_the_bad_line() {
+        let e = Catalog::from_table("id,ra_deg,dec_deg,mag\n1,0,0,1\n2,x,0,1\n".as_bytes())
+            .unwrap_err();
+        assert_eq!(e.kind(), &crate::ErrorKind::Catalog { line: Some(3) });
+        let e = Catalog::from_table("id,ra_deg,dec_deg,mag\n1,0,95,1\n".as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("outside"));
+        assert!(Catalog::from_table("".as_bytes()).is_err());
+        assert!(Catalog::from_table("id,ra,mag\n1,2,3\n".as_bytes())
+            .unwrap_err()
+            .to_string()
+            .contains("dec_deg"));
+        assert!(Catalog::from_table("1,0,0,1\n1,1,1,1\n".as_bytes())
+            .unwrap_err()
+            .to_string()
+            .contains("more than once"));
+        assert!(Catalog::from_table("1,0,nan,1\n".as_bytes()).is_err());
+    }
+
+    #[test]
+    fn hip2_proper_motion() {
+        // Barnard's star (HIP 87937): pmRA -801.55, pmDE 10362.54 mas/yr.
+        let rec = " 87937  1 0 1  4.7028284969  0.0821598524  548.31  -801.55 10362.54   1.51   1.29   1.06   1.05   1.14  75  0.47  0    0.0    1  9.5429 0.0015 0.022 0  1.570 0.008  2.830   1.23  -0.03  -0.14  -0.04   0.16   1.05  -0.10   0.04  -0.01   1.07  -0.12   0.04   0.09   0.29   1.14";
+        let c0 = Catalog::from_hip2(rec.as_bytes(), 12.0, 1991.25).unwrap();
+        let c1 = Catalog::from_hip2(rec.as_bytes(), 12.0, 2001.25).unwrap();
+        let moved = crate::geometry::angle_between(&c0.vectors()[0], &c1.vectors()[0]).to_degrees()
+            * 3600.0;
+        let expected = (801.55f64.hypot(10362.54)) * 10.0 / 1000.0;
+        assert!((moved - expected).abs() < 1e-3, "{moved} vs {expected}");
+        assert!(c1.dec_rad()[0] > c0.dec_rad()[0]);
+        assert!(Catalog::from_hip2(rec.as_bytes(), 5.0, 2000.0).is_err());
+    }
+}

@@ -1,0 +1,927 @@
+//! Lost-in-space identification: Pyramid search over the k-vector, verification of every
+//! hypothesis against the catalogue, attitude from all matched stars.
+//!
+//! # Algorithm
+//! 1. Centroids become camera-frame unit vectors (and their mirror images, x reversed).
+//! 2. Triangles of observed stars are visited in Mortari's Pyramid order over the brightest
+//!    `max_search_stars` (brightness order when magnitudes are given, input order otherwise),
+//!    so that one false star cannot block the search.
+//! 3. For a triangle, the k-vector returns the catalogue pairs matching each side within
+//!    `ε = 3·√2·σ/f`; catalogue triangles are the closed loops of the three pair sets.
+//!    The sign of the triple product of the observed and the catalogue triangle says whether
+//!    the frame is mirrored: both handednesses are searched without being told.
+//! 4. Each catalogue triangle is a *hypothesis*: an attitude is solved from its three stars and
+//!    must be confirmed by a fourth observed star landing on a catalogue star (the Pyramid's
+//!    fourth star, found through the catalogue's zone index).
+//! 5. A confirmed hypothesis is verified: every centroid is matched to its nearest catalogue star,
+//!    the attitude is re-solved from all matches (Wahba/SVD), the centroid noise is estimated
+//!    from the residuals and the match radius widened to 4σ of it (never narrowed below 5σ of
+//!    the step), and the *false-match bound* is
+//!    computed (below). Only a solution with at least `min_matches` stars and a bound below
+//!    `max_false_match_prob` is reported; otherwise the search goes on.
+//!
+//! # The false-match bound
+//! Under a wrong hypothesis, each of the `n − 3` centroids outside the triangle lands within the
+//! match radius `r` of some catalogue star with probability `p = ρ·π·r²`, with `ρ` the local
+//! catalogue density (stars per steradian in the field). The chance that at least `m − 3` of them
+//! do is the binomial tail `T = P(Bin(n − 3, p) ≥ m − 3)`. A union bound over the `H` hypotheses
+//! tested so far gives `P(false) ≤ H·T`, which is what [`Identification::false_match_probability`]
+//! reports.
+//!
+//! # Tolerances that adapt
+//! When the centroid noise is not given, the search runs a ladder of noise levels
+//! ([`SIGMA_LADDER_PX`]): tight first (strong verification, fast), then looser. All but the last
+//! step try at most [`TRIANGLES_PER_STEP`] triangles.
+
+use std::f64::consts::{PI, SQRT_2};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use nalgebra::{Rotation3, Vector3};
+
+use crate::attitude::wahba_svd;
+use crate::catalog::Catalog;
+use crate::error::{Error, Result};
+use crate::geometry::Camera;
+use crate::kvector::PairIndex;
+
+/// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
+pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
+
+/// Triangles tried at each step of the ladder but the last before moving to a looser step.
+pub const TRIANGLES_PER_STEP: usize = 60;
+
+/// Match radius in units of the ladder step's σ; the false-match bound is computed with it.
+pub const MATCH_RADIUS_SIGMAS: f64 = 5.0;
+
+/// A solution whose false-match bound is below this is reported at once; a weaker one only
+/// after [`TRIANGLES_AFTER_WEAK`] more triangles found nothing stronger.
+pub const STRONG_FALSE_MATCH_PROB: f64 = 1e-9;
+
+/// Triangles tried after a weak solution in search of a stronger one.
+pub const TRIANGLES_AFTER_WEAK: usize = 40;
+
+/// Largest number of centroids accepted in one frame.
+pub const MAX_CENTROIDS: usize = 100_000;
+
+/// Fewest centroids a frame must have: a triangle and a confirming fourth star.
+pub const MIN_CENTROIDS: usize = 4;
+
+/// Settings of [`Solver::identify`]. Build with `..Default::default()`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentifyConfig {
+    /// Centroid noise, 1σ per axis in pixels. `None`: try [`SIGMA_LADDER_PX`] in turn.
+    pub centroid_sigma_px: Option<f64>,
+    /// Largest accepted bound on the probability that the solution is a false match.
+    pub max_false_match_prob: f64,
+    /// Fewest matched stars of a reported solution (at least 4).
+    pub min_matches: usize,
+    /// How many centroids (brightest first) form search triangles; all are verified.
+    pub max_search_stars: usize,
+    /// Stop after testing this many catalogue-triangle hypotheses.
+    pub max_hypotheses: usize,
+    /// Search mirrored (odd number of reflections) frames too.
+    pub allow_mirrored: bool,
+}
+
+impl Default for IdentifyConfig {
+    fn default() -> Self {
+        Self {
+            centroid_sigma_px: None,
+            max_false_match_prob: 1e-3,
+            min_matches: 4,
+            max_search_stars: 24,
+            max_hypotheses: 200_000,
+            allow_mirrored: true,
+        }
+    }
+}
+
+impl IdentifyConfig {
+    fn validate(&self) -> Result<()> {
+        if let Some(s) = self.centroid_sigma_px {
+            if !s.is_finite() || s <= 0.0 || s > 1000.0 {
+                return Err(Error::invalid_input(format!(
+                    "centroid_sigma_px must be in (0, 1000] pixels, got {s}"
+                )));
+            }
+        }
+        let p = self.max_false_match_prob;
+        if !(p > 0.0 && p <= 1.0) {
+            return Err(Error::invalid_input(format!(
+                "max_false_match_prob must be in (0, 1], got {p}"
+            )));
+        }
+        if self.min_matches < MIN_CENTROIDS {
+            return Err(Error::invalid_input(format!(
+                "min_matches must be at least {MIN_CENTROIDS}, got {}",
+                self.min_matches
+            )));
+        }
+        if self.max_search_stars < 3 {
+            return Err(Error::invalid_input(format!(
+                "max_search_stars must be at least 3, got {}",
+                self.max_search_stars
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// How an identification ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Status {
+    /// A verified solution was found.
+    Identified,
+    /// The search ended without a verified solution.
+    NoMatch,
+    /// `max_hypotheses` were tested without a verified solution.
+    HypothesisLimit,
+}
+
+impl Status {
+    /// Lower-case name: `identified`, `no_match`, `hypothesis_limit`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::Identified => "identified",
+            Self::NoMatch => "no_match",
+            Self::HypothesisLimit => "hypothesis_limit",
+        }
+    }
+}
+
+/// The outcome of identifying one frame.
+#[derive(Debug, Clone)]
+pub struct Identification {
+    /// How the search ended.
+    pub status: Status,
+    /// Catalogue index of each centroid (input order), `None` where unidentified.
+    pub catalog_index: Vec<Option<u32>>,
+    /// Rotation ICRS → camera (`v_cam = r · v_icrs`); with `mirrored`, the camera frame is the
+    /// one of the image with its x axis reversed (`x → W − x`). `None` unless identified.
+    pub r_icrs_to_cam: Option<Rotation3<f64>>,
+    /// Whether the frame is mirrored (an odd number of reflections).
+    pub mirrored: bool,
+    /// Angle between each centroid's direction and its catalogue star, radians; NaN where unidentified.
+    pub residuals_rad: Vec<f64>,
+    /// Bound on the probability that the solution is a false match (1 when unidentified).
+    pub false_match_probability: f64,
+    /// Number of identified centroids.
+    pub matched: usize,
+    /// Centroid noise estimated from the residuals (1σ per axis, px); NaN when unidentified.
+    pub centroid_sigma_px: f64,
+    /// Radius within which a centroid was matched to a star, radians; NaN when unidentified.
+    pub match_radius_rad: f64,
+    /// Catalogue-triangle hypotheses tested.
+    pub hypotheses: usize,
+    /// Time spent in [`Solver::identify`].
+    pub elapsed: Duration,
+}
+
+impl Identification {
+    /// Whether a verified solution was found.
+    pub fn is_identified(&self) -> bool {
+        self.status == Status::Identified
+    }
+}
+
+/// A catalogue with its pair index: everything identification needs. Immutable and `Sync`:
+/// share one across threads.
+#[derive(Debug, Clone)]
+pub struct Solver {
+    catalog: Arc<Catalog>,
+    pairs: PairIndex,
+    build_time: Duration,
+}
+
+impl Solver {
+    /// Index `catalog` for frames whose stars are at most `max_angle_rad` apart (a frame's
+    /// diagonal field of view, see [`Camera::diagonal_fov_rad`]).
+    ///
+    /// # Errors
+    /// As [`PairIndex::build`].
+    pub fn new(catalog: Arc<Catalog>, max_angle_rad: f64) -> Result<Self> {
+        let t = Instant::now();
+        let pairs = PairIndex::build(&catalog, max_angle_rad)?;
+        Ok(Self {
+            catalog,
+            pairs,
+            build_time: t.elapsed(),
+        })
+    }
+
+    /// Index `catalog` for frames of `camera`.
+    ///
+    /// # Errors
+    /// As [`PairIndex::build`].
+    pub fn for_camera(catalog: Arc<Catalog>, camera: &Camera) -> Result<Self> {
+        Self::new(catalog, camera.diagonal_fov_rad())
+    }
+
+    /// The catalogue.
+    pub fn catalog(&self) -> &Arc<Catalog> {
+        &self.catalog
+    }
+
+    /// The pair index.
+    pub fn pair_index(&self) -> &PairIndex {
+        &self.pairs
+    }
+
+    /// Time it took to build the pair index.
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+
+    /// Identify the stars of one frame.
+    ///
+    /// `centroids` are pixel `(x, y)`, x right, y down, origin at the sensor's top-left corner;
+    /// `magnitudes`, when given, one instrument magnitude per centroid (smaller is brighter):
+    /// only their order is used, to search the brightest stars first.
+    ///
+    /// # Errors
+    /// `InvalidInput` for fewer than [`MIN_CENTROIDS`] or more than [`MAX_CENTROIDS`] centroids,
+    /// non-finite or duplicate centroids, centroids off the sensor, magnitudes of the wrong
+    /// length or non-finite, or an invalid `config`. A frame that cannot be identified is not
+    /// an error: see [`Identification::status`].
+    pub fn identify(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+    ) -> Result<Identification> {
+        let start = Instant::now();
+        config.validate()?;
+        validate_centroids(centroids, magnitudes, camera)?;
+        let n = centroids.len();
+        let obs: Vec<Vector3<f64>> = centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], false))
+            .collect();
+        let obs_mirrored: Vec<Vector3<f64>> =
+            obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)).collect();
+        let mut order: Vec<usize> = (0..n).collect();
+        if let Some(m) = magnitudes {
+            order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
+        }
+        let ladder: Vec<f64> = match config.centroid_sigma_px {
+            Some(s) => vec![s],
+            None => SIGMA_LADDER_PX.to_vec(),
+        };
+        let mut search = Search {
+            solver: self,
+            camera,
+            config,
+            obs: [&obs, &obs_mirrored],
+            order: &order,
+            hypotheses: 0,
+            scratch: SCRATCH.with(|c| c.take()),
+        };
+        let mut status = Status::NoMatch;
+        for (step, &sigma_px) in ladder.iter().enumerate() {
+            let cap = if step + 1 == ladder.len() {
+                usize::MAX
+            } else {
+                TRIANGLES_PER_STEP
+            };
+            match search.run(sigma_px, cap) {
+                Ok(Some(v)) => {
+                    let hypotheses = search.hypotheses;
+                    SCRATCH.with(|c| c.replace(search.scratch));
+                    return Ok(v.into_identification(hypotheses, start.elapsed()));
+                }
+                Ok(None) => {}
+                Err(SearchLimit) => {
+                    status = Status::HypothesisLimit;
+                    break;
+                }
+            }
+        }
+        let hypotheses = search.hypotheses;
+        SCRATCH.with(|c| c.replace(search.scratch));
+        Ok(Identification {
+            status,
+            catalog_index: vec![None; n],
+            r_icrs_to_cam: None,
+            mirrored: false,
+            residuals_rad: vec![f64::NAN; n],
+            false_match_probability: 1.0,
+            matched: 0,
+            centroid_sigma_px: f64::NAN,
+            match_radius_rad: f64::NAN,
+            hypotheses,
+            elapsed: start.elapsed(),
+        })
+    }
+}
+
+/// One frame of a batch: its centroids and, optionally, their magnitudes.
+pub type FrameRef<'a> = (&'a [[f64; 2]], Option<&'a [f64]>);
+
+impl Solver {
+    /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
+    /// `threads` is not 1 (`None`: all cores). Results come in input order and do not depend on
+    /// the thread count.
+    ///
+    /// # Errors
+    /// The first invalid frame's error, as for [`Solver::identify`].
+    pub fn identify_batch(
+        &self,
+        frames: &[FrameRef<'_>],
+        camera: &Camera,
+        config: &IdentifyConfig,
+        threads: Option<usize>,
+    ) -> Result<Vec<Identification>> {
+        let one = |f: &FrameRef<'_>| self.identify(f.0, f.1, camera, config);
+        #[cfg(feature = "parallel")]
+        if threads != Some(1) && frames.len() > 1 {
+            use rayon::prelude::*;
+            let run = || frames.par_iter().map(one).collect::<Result<Vec<_>>>();
+            return match threads {
+                None => run(),
+                Some(t) => rayon::ThreadPoolBuilder::new()
+                    .num_threads(t)
+                    .build()
+                    .map_err(|e| Error::invalid_input(format!("cannot start {t} threads: {e}")))?
+                    .install(run),
+            };
+        }
+        let _ = threads;
+        frames.iter().map(one).collect()
+    }
+}
+
+fn validate_centroids(
+    centroids: &[[f64; 2]],
+    magnitudes: Option<&[f64]>,
+    camera: &Camera,
+) -> Result<()> {
+    let n = centroids.len();
+    if n < MIN_CENTROIDS {
+        return Err(Error::invalid_input(format!(
+            "identification needs at least {MIN_CENTROIDS} centroids (a triangle and a confirming star), got {n}"
+        )));
+    }
+    if n > MAX_CENTROIDS {
+        return Err(Error::invalid_input(format!(
+            "too many centroids: {n} (at most {MAX_CENTROIDS})"
+        )));
+    }
+    let (w, h) = (camera.width_px, camera.height_px);
+    for (i, c) in centroids.iter().enumerate() {
+        if !c[0].is_finite() || !c[1].is_finite() {
+            return Err(Error::invalid_input(format!(
+                "centroid {i} has a non-finite coordinate ({}, {})",
+                c[0], c[1]
+            )));
+        }
+        if c[0] < -1.0 || c[0] > w + 1.0 || c[1] < -1.0 || c[1] > h + 1.0 {
+            return Err(Error::invalid_input(format!(
+                "centroid {i} at ({}, {}) lies outside the {w} x {h} px sensor (x right, y down, origin top-left)",
+                c[0], c[1]
+            )));
+        }
+    }
+    let mut sorted: Vec<usize> = (0..n).collect();
+    sorted.sort_unstable_by(|&a, &b| {
+        centroids[a][0]
+            .total_cmp(&centroids[b][0])
+            .then(centroids[a][1].total_cmp(&centroids[b][1]))
+    });
+    for pair in sorted.windows(2) {
+        let (a, b) = (centroids[pair[0]], centroids[pair[1]]);
+        if a == b {
+            let (i, j) = (pair[0].min(pair[1]), pair[0].max(pair[1]));
+            return Err(Error::invalid_input(format!(
+                "centroids {i} and {j} are duplicates at ({}, {})",
+                a[0], a[1]
+            )));
+        }
+    }
+    if let Some(m) = magnitudes {
+        if m.len() != n {
+            return Err(Error::invalid_input(format!(
+                "magnitudes has {} values for {n} centroids",
+                m.len()
+            )));
+        }
+        if let Some(i) = m.iter().position(|v| !v.is_finite()) {
+            return Err(Error::invalid_input(format!(
+                "magnitude {i} is not finite ({})",
+                m[i]
+            )));
+        }
+    }
+    Ok(())
+}
+
+thread_local! {
+    /// Buffers kept between calls on a thread, so identification allocates almost nothing.
+    static SCRATCH: std::cell::Cell<Scratch> = std::cell::Cell::new(Scratch::default());
+}
+
+/// The hypothesis budget ran out.
+struct SearchLimit;
+
+/// Reusable buffers: no allocation per hypothesis.
+#[derive(Default)]
+struct Scratch {
+    adj_ik: Adjacency,
+    adj_jk: Adjacency,
+    triangles: Vec<[u32; 3]>,
+    matches: Vec<Option<(u32, f64)>>,
+    claim: Vec<(u32, u32, f64)>,
+    obs_matched: Vec<Vector3<f64>>,
+    ref_matched: Vec<Vector3<f64>>,
+}
+
+struct Search<'a> {
+    solver: &'a Solver,
+    camera: &'a Camera,
+    config: &'a IdentifyConfig,
+    /// Observed directions: `[as seen, x reversed]`.
+    obs: [&'a [Vector3<f64>]; 2],
+    order: &'a [usize],
+    hypotheses: usize,
+    scratch: Scratch,
+}
+
+/// A verified solution.
+struct Verified {
+    r: Rotation3<f64>,
+    mirrored: bool,
+    matches: Vec<Option<(u32, f64)>>,
+    matched: usize,
+    sigma_px: f64,
+    radius_rad: f64,
+    /// Binomial tail of the match count under a false hypothesis.
+    tail: f64,
+    /// `tail` times the hypotheses tested (set by `accept`).
+    false_prob: f64,
+}
+
+impl Verified {
+    fn into_identification(self, hypotheses: usize, elapsed: Duration) -> Identification {
+        Identification {
+            status: Status::Identified,
+            catalog_index: self.matches.iter().map(|m| m.map(|(c, _)| c)).collect(),
+            residuals_rad: self
+                .matches
+                .iter()
+                .map(|m| m.map_or(f64::NAN, |(_, d)| d))
+                .collect(),
+            r_icrs_to_cam: Some(self.r),
+            mirrored: self.mirrored,
+            false_match_probability: self.false_prob,
+            matched: self.matched,
+            centroid_sigma_px: self.sigma_px,
+            match_radius_rad: self.radius_rad,
+            hypotheses,
+            elapsed,
+        }
+    }
+}
+
+impl Search<'_> {
+    /// One step of the ladder: Pyramid search at centroid noise `sigma_px`, at most `cap` triangles.
+    fn run(
+        &mut self,
+        sigma_px: f64,
+        cap: usize,
+    ) -> std::result::Result<Option<Verified>, SearchLimit> {
+        let f = self.camera.focal_length_px;
+        let sigma_rad = sigma_px / f;
+        let eps = 3.0 * SQRT_2 * sigma_rad + 1e-7;
+        let r_confirm = 10.0 * sigma_rad + 2e-7;
+        let max_angle = self.solver.pairs.max_angle_rad() - eps;
+        let s = self.order.len().min(self.config.max_search_stars);
+        let obs = self.obs[0];
+        let search: Vec<usize> = self.order[..s].to_vec();
+        let mut angle = vec![0.0f64; s * s];
+        for a in 0..s {
+            for b in a + 1..s {
+                let t = crate::geometry::angle_between(&obs[search[a]], &obs[search[b]]);
+                angle[a * s + b] = t;
+                angle[b * s + a] = t;
+            }
+        }
+        let mut tried = 0usize;
+        let mut best: Option<Verified> = None;
+        let mut stop_after = usize::MAX;
+        // Mortari's Pyramid order: vary all three stars quickly so a false star cannot block.
+        for dj in 1..s.saturating_sub(1) {
+            for dk in 1..s - dj {
+                for a in 0..s - dj - dk {
+                    let (b, c) = (a + dj, a + dj + dk);
+                    let (t_ij, t_ik, t_jk) = (angle[a * s + b], angle[a * s + c], angle[b * s + c]);
+                    let (lo, hi) = (t_ij.min(t_ik).min(t_jk), t_ij.max(t_ik).max(t_jk));
+                    if hi > max_angle || lo < 2.0 * eps {
+                        continue;
+                    }
+                    let (i, j, k) = (search[a], search[b], search[c]);
+                    let tp_obs = obs[i].dot(&obs[j].cross(&obs[k]));
+                    // The handedness must survive the noise, or the triangle cannot tell a mirrored frame.
+                    if tp_obs.abs() < 3.0 * sigma_rad * (t_ij + t_ik + t_jk) {
+                        continue;
+                    }
+                    if tried >= cap.min(stop_after) {
+                        return Ok(self.accept(best));
+                    }
+                    tried += 1;
+                    let found = match self.try_triangle(
+                        [i, j, k],
+                        [t_ij, t_ik, t_jk],
+                        tp_obs,
+                        eps,
+                        r_confirm,
+                        sigma_rad,
+                    ) {
+                        Ok(found) => found,
+                        Err(limit) => return self.accept(best).map_or(Err(limit), |v| Ok(Some(v))),
+                    };
+                    if let Some(v) = found {
+                        if v.tail * (self.hypotheses as f64) <= STRONG_FALSE_MATCH_PROB {
+                            return Ok(self.accept(Some(v)));
+                        }
+                        // A weak solution: look a little further for a stronger one.
+                        stop_after = stop_after.min(tried + TRIANGLES_AFTER_WEAK);
+                        if best.as_ref().is_none_or(|b| v.tail < b.tail) {
+                            best = Some(v);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(self.accept(best))
+    }
+
+    /// The solution, if its bound over every hypothesis tested so far passes.
+    fn accept(&self, v: Option<Verified>) -> Option<Verified> {
+        let mut v = v?;
+        v.false_prob = (self.hypotheses.max(1) as f64 * v.tail).min(1.0);
+        (v.false_prob <= self.config.max_false_match_prob).then_some(v)
+    }
+
+    fn try_triangle(
+        &mut self,
+        [i, j, k]: [usize; 3],
+        [t_ij, t_ik, t_jk]: [f64; 3],
+        tp_obs: f64,
+        eps: f64,
+        r_confirm: f64,
+        sigma_rad: f64,
+    ) -> std::result::Result<Option<Verified>, SearchLimit> {
+        let mut triangles = std::mem::take(&mut self.scratch.triangles);
+        self.catalogue_triangles(t_ij, t_ik, t_jk, eps, &mut triangles);
+        let cat = self.solver.catalog.vectors();
+        let mut result = Ok(None);
+        for &[ca, cb, cc] in &triangles {
+            let (va, vb, vc) = (&cat[ca as usize], &cat[cb as usize], &cat[cc as usize]);
+            let mirrored = (va.dot(&vb.cross(vc)) > 0.0) != (tp_obs > 0.0);
+            if mirrored && !self.config.allow_mirrored {
+                continue;
+            }
+            if self.hypotheses >= self.config.max_hypotheses {
+                result = Err(SearchLimit);
+                break;
+            }
+            self.hypotheses += 1;
+            let obs = self.obs[usize::from(mirrored)];
+            let Some(r) = wahba_svd(&[obs[i], obs[j], obs[k]], &[*va, *vb, *vc]) else {
+                continue;
+            };
+            if !self.confirmed_by_fourth(&r, obs, [i, j, k], [ca, cb, cc], r_confirm, sigma_rad) {
+                continue;
+            }
+            if let Some(v) = self.verify(r, mirrored, r_confirm, sigma_rad) {
+                result = Ok(Some(v));
+                break;
+            }
+        }
+        self.scratch.triangles = triangles;
+        result
+    }
+
+    /// Catalogue triangles `(a, b, c)` with `|a b| ≈ t_ij`, `|a c| ≈ t_ik`, `|b c| ≈ t_jk`.
+    fn catalogue_triangles(
+        &mut self,
+        t_ij: f64,
+        t_ik: f64,
+        t_jk: f64,
+        eps: f64,
+        out: &mut Vec<[u32; 3]>,
+    ) {
+        out.clear();
+        let idx = &self.solver.pairs;
+        let (r_ij, r_ik, r_jk) = (
+            idx.range(t_ij - eps, t_ij + eps),
+            idx.range(t_ik - eps, t_ik + eps),
+            idx.range(t_jk - eps, t_jk + eps),
+        );
+        if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
+            return;
+        }
+        let n_cat = self.solver.catalog.len();
+        self.scratch.adj_ik.fill(idx.pairs(r_ik), n_cat);
+        self.scratch.adj_jk.fill(idx.pairs(r_jk), n_cat);
+        let (adj_ik, adj_jk) = (&self.scratch.adj_ik, &self.scratch.adj_jk);
+        for &[p, q] in idx.pairs(r_ij) {
+            for (a, b) in [(p, q), (q, p)] {
+                for c in adj_ik.partners(a) {
+                    if adj_jk.partners(b).any(|d| d == c) {
+                        out.push([a, b, c]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether a fourth centroid lands on a catalogue star under attitude `r`.
+    fn confirmed_by_fourth(
+        &self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        used: [usize; 3],
+        used_cat: [u32; 3],
+        radius: f64,
+        sigma_rad: f64,
+    ) -> bool {
+        let cat = self.solver.catalog.vectors();
+        let zones = self.solver.catalog.zones();
+        self.order.iter().filter(|o| !used.contains(o)).any(|&o| {
+            let w = r.inverse_transform_vector(&obs[o]);
+            match unambiguous_nearest(zones, cat, &w, radius, sigma_rad) {
+                Some((star, _)) => !used_cat.contains(&star),
+                None => false,
+            }
+        })
+    }
+
+    /// Match all centroids, re-solve the attitude, adapt the radius to the residuals and bound
+    /// the false-match probability. `None` if the hypothesis does not verify.
+    fn verify(
+        &mut self,
+        r0: Rotation3<f64>,
+        mirrored: bool,
+        r_confirm: f64,
+        sigma_rad: f64,
+    ) -> Option<Verified> {
+        let obs = self.obs[usize::from(mirrored)];
+        let n = obs.len();
+        let f = self.camera.focal_length_px;
+        let mut r = r0;
+        let mut radius = r_confirm;
+        let mut sigma = sigma_rad;
+        // Match and re-solve; then the radius follows the noise estimated from the residuals
+        // (5σ, never below half the ladder's σ, so that four stars cannot talk it down to nothing).
+        for _ in 0..4 {
+            let matched = self.match_all(&r, obs, radius, sigma);
+            if matched < 3 {
+                return None;
+            }
+            let (o_m, r_m) = (&self.scratch.obs_matched, &self.scratch.ref_matched);
+            r = wahba_svd(o_m, r_m)?;
+            let sum_sq: f64 = o_m
+                .iter()
+                .zip(r_m)
+                .map(|(o, c)| (o - r * c).norm_squared())
+                .sum();
+            // E|d|² = 2σ² per star, less the three attitude degrees of freedom.
+            let dof = (2 * matched).saturating_sub(3).max(1) as f64;
+            sigma = (sum_sq / dof).sqrt().max(0.5 * sigma_rad);
+            // Never below the step's own radius: residuals of a (possibly false) fit must not
+            // talk the radius down, or the false-match bound would be computed after the fact.
+            let new_radius = (4.0 * sigma).max(MATCH_RADIUS_SIGMAS * sigma_rad) + 1e-7;
+            let settled = (new_radius - radius).abs() <= 0.05 * radius;
+            radius = new_radius;
+            if settled {
+                break;
+            }
+        }
+        let matched = self.match_all(&r, obs, radius, sigma);
+        if matched < self.config.min_matches {
+            return None;
+        }
+        let tail = self.match_tail(&r, n, matched, radius);
+        if self.hypotheses as f64 * tail > self.config.max_false_match_prob {
+            return None;
+        }
+        Some(Verified {
+            r,
+            mirrored,
+            matches: self.scratch.matches.clone(),
+            matched,
+            sigma_px: sigma * f,
+            radius_rad: radius,
+            tail,
+            false_prob: f64::NAN,
+        })
+    }
+
+    /// Nearest-star match of every centroid under `r`, each catalogue star claimed at most once.
+    /// Fills `scratch.matches` (per centroid) and the matched vector lists; returns the count.
+    fn match_all(
+        &mut self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        radius: f64,
+        sigma_rad: f64,
+    ) -> usize {
+        let cat = self.solver.catalog.vectors();
+        let zones = self.solver.catalog.zones();
+        let s = &mut self.scratch;
+        s.matches.clear();
+        s.claim.clear();
+        for (o, v) in obs.iter().enumerate() {
+            let w = r.inverse_transform_vector(v);
+            let m = unambiguous_nearest(zones, cat, &w, radius, sigma_rad);
+            if let Some((star, d)) = m {
+                s.claim.push((star, o as u32, d));
+            }
+            s.matches.push(m);
+        }
+        // A catalogue star claimed by two centroids is ambiguous: neither gets it.
+        s.claim.sort_unstable_by_key(|c| c.0);
+        for w in 1..s.claim.len() {
+            if s.claim[w].0 == s.claim[w - 1].0 {
+                s.matches[s.claim[w].1 as usize] = None;
+                s.matches[s.claim[w - 1].1 as usize] = None;
+            }
+        }
+        s.obs_matched.clear();
+        s.ref_matched.clear();
+        for (o, m) in s.matches.iter().enumerate() {
+            if let Some((star, _)) = m {
+                s.obs_matched.push(obs[o]);
+                s.ref_matched.push(cat[*star as usize]);
+            }
+        }
+        s.obs_matched.len()
+    }
+
+    /// `P(Bin(n − 3, p) ≥ m − 3)` with `p` from the local catalogue density.
+    fn match_tail(&self, r: &Rotation3<f64>, n: usize, matched: usize, radius: f64) -> f64 {
+        let half_diag = 0.5 * self.camera.diagonal_fov_rad();
+        let boresight = r.inverse_transform_vector(&Vector3::z());
+        let mut in_field = 0usize;
+        self.solver.catalog.zones().for_each_in_cone(
+            self.solver.catalog.vectors(),
+            &boresight,
+            half_diag,
+            |_, _| {
+                in_field += 1;
+            },
+        );
+        let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
+        let density = in_field.max(1) as f64 / cone_sr;
+        let p = (density * PI * radius * radius).min(1.0);
+        binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p)
+    }
+}
+
+/// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as close
+/// (within two noise σ of the first): an ambiguous match is no match.
+fn unambiguous_nearest(
+    zones: &crate::sky::ZoneIndex,
+    cat: &[Vector3<f64>],
+    w: &Vector3<f64>,
+    radius: f64,
+    sigma_rad: f64,
+) -> Option<(u32, f64)> {
+    let (best, second) = zones.nearest_two(cat, w, radius);
+    let (star, c1) = best?;
+    let d1 = crate::geometry::angle_between(w, &cat[star as usize]);
+    if let Some((s2, _)) = second {
+        let d2 = crate::geometry::angle_between(w, &cat[s2 as usize]);
+        if d2 < d1 + 2.0 * sigma_rad {
+            return None;
+        }
+    }
+    let _ = c1;
+    Some((star, d1))
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Adjacency lists of a set of catalogue pairs (both orientations) as linked lists indexed by
+/// catalogue star: O(1) to look up, O(pairs) to fill and to reset, no sorting.
+#[derive(Default)]
+struct Adjacency {
+    head: Vec<u32>,
+    next: Vec<u32>,
+    partner: Vec<u32>,
+    touched: Vec<u32>,
+}
+
+impl Adjacency {
+    fn fill(&mut self, pairs: &[[u32; 2]], n_cat: usize) {
+        for &s in &self.touched {
+            self.head[s as usize] = NONE;
+        }
+        if self.head.len() != n_cat {
+            self.head.clear();
+            self.head.resize(n_cat, NONE);
+        }
+        self.touched.clear();
+        self.next.clear();
+        self.partner.clear();
+        for &[p, q] in pairs {
+            self.push(p, q);
+            self.push(q, p);
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, star: u32, partner: u32) {
+        let h = &mut self.head[star as usize];
+        if *h == NONE {
+            self.touched.push(star);
+        }
+        self.next.push(*h);
+        self.partner.push(partner);
+        *h = (self.partner.len() - 1) as u32;
+    }
+
+    #[inline]
+    fn partners(&self, star: u32) -> impl Iterator<Item = u32> + '_ {
+        let mut at = self.head[star as usize];
+        std::iter::from_fn(move || {
+            (at != NONE).then(|| {
+                let p = self.partner[at as usize];
+                at = self.next[at as usize];
+                p
+            })
+        })
+    }
+}
+
+/// `P(X ≥ m)` for `X ~ Binomial(n, p)`, summed in log space.
+pub fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
+    if m == 0 {
+        return 1.0;
+    }
+    if m > n || p <= 0.0 {
+        return 0.0;
+    }
+    if p >= 1.0 {
+        return 1.0;
+    }
+    let (nf, mf) = (n as f64, m as f64);
+    let ln_choose: f64 = (1..=m)
+        .map(|i| ((nf - mf + i as f64) / i as f64).ln())
+        .sum();
+    let mut term = (ln_choose + mf * p.ln() + (nf - mf) * (-p).ln_1p()).exp();
+    let ratio = p / (1.0 - p);
+    let mut sum = 0.0;
+    for k in m..=n {
+        sum += term;
+        let next = term * (nf - k as f64) / (k as f64 + 1.0) * ratio;
+        if next < sum * 1e-17 && (nf - k as f64) / (k as f64 + 1.0) * ratio < 1.0 {
+            break;
+        }
+        term = next;
+    }
+    sum.min(1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn binomial_tail_matches_direct_sums() {
+        assert!((binomial_tail(1, 1, 0.3) - 0.3).abs() < 1e-15);
+        assert!((binomial_tail(2, 1, 0.5) - 0.75).abs() < 1e-15);
+        assert!((binomial_tail(3, 2, 0.1) - (3.0 * 0.01 * 0.9 + 0.001)).abs() < 1e-15);
+        assert_eq!(binomial_tail(5, 0, 0.1), 1.0);
+        assert_eq!(binomial_tail(5, 6, 0.1), 0.0);
+        // C(40, 20) = 137846528820; the first term dominates.
+        let t = binomial_tail(40, 20, 1e-4);
+        let first = 137_846_528_820.0 * 1e-80 * (1.0f64 - 1e-4).powi(20);
+        assert!((t / first - 1.0).abs() < 1e-3, "{t:e} vs {first:e}");
+    }
+
+    #[test]
+    fn config_rejects_nonsense() {
+        let bad = [
+            IdentifyConfig {
+                centroid_sigma_px: Some(f64::NAN),
+                ..Default::default()
+            },
+            IdentifyConfig {
+                max_false_match_prob: 0.0,
+                ..Default::default()
+            },
+            IdentifyConfig {
+                min_matches: 3,
+                ..Default::default()
+            },
+        ];
+        for c in bad {
+            assert!(c.validate().is_err());
+        }
+        assert!(IdentifyConfig::default().validate().is_ok());
+    }
+}

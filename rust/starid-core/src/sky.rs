@@ -1,0 +1,196 @@
+//! Declination-zone spatial index of the catalogue: cone queries and nearest-star look-ups.
+//!
+//! The sphere is cut into declination zones of equal height; inside a zone the stars are sorted
+//! by right ascension, so a cone query is a handful of binary searches (the classic zone
+//! method of astronomical cross-matching). There is no cube-face or pole seam to handle:
+//! zones touching a pole are scanned whole.
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+use nalgebra::Vector3;
+
+use crate::geometry::unit_to_radec;
+
+/// A star found by a query: its index and the cosine of its angle to the query direction.
+pub type Hit = (u32, f64);
+
+/// Zone index over a set of unit vectors.
+#[derive(Debug, Clone)]
+pub struct ZoneIndex {
+    zone_height_rad: f64,
+    /// `zone_start[z]..zone_start[z + 1]` is zone `z` in `order` / `ra_rad`.
+    zone_start: Vec<u32>,
+    /// Star indices, zone by zone, sorted by RA inside a zone.
+    order: Vec<u32>,
+    /// RA of `order[i]`.
+    ra_rad: Vec<f64>,
+}
+
+impl ZoneIndex {
+    /// Build over `vectors` (unit vectors) with zones of `zone_height_rad`.
+    pub fn new(vectors: &[Vector3<f64>], zone_height_rad: f64) -> Self {
+        let n_zones = ((PI / zone_height_rad).ceil() as usize).max(1);
+        let zone_height_rad = PI / n_zones as f64;
+        let mut keyed: Vec<(u32, f64, u32)> = vectors
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let (ra, dec) = unit_to_radec(v);
+                (zone_of(dec, zone_height_rad, n_zones) as u32, ra, i as u32)
+            })
+            .collect();
+        keyed.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let mut zone_start = vec![0u32; n_zones + 1];
+        for &(z, _, _) in &keyed {
+            zone_start[z as usize + 1] += 1;
+        }
+        for z in 0..n_zones {
+            zone_start[z + 1] += zone_start[z];
+        }
+        Self {
+            zone_height_rad,
+            zone_start,
+            order: keyed.iter().map(|k| k.2).collect(),
+            ra_rad: keyed.iter().map(|k| k.1).collect(),
+        }
+    }
+
+    /// Number of zones.
+    pub fn zone_count(&self) -> usize {
+        self.zone_start.len() - 1
+    }
+
+    /// Heap memory in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.zone_start.len() * 4 + self.order.len() * 4 + self.ra_rad.len() * 8
+    }
+
+    /// Calls `f(index)` for every star within `radius_rad` of `center` (a unit vector);
+    /// `vectors` must be the vectors the index was built over.
+    pub fn for_each_in_cone(
+        &self,
+        vectors: &[Vector3<f64>],
+        center: &Vector3<f64>,
+        radius_rad: f64,
+        mut f: impl FnMut(u32, f64),
+    ) {
+        let cos_r = radius_rad.min(PI).cos();
+        self.for_each_candidate(center, radius_rad, |star| {
+            let c = vectors[star as usize].dot(center);
+            if c >= cos_r {
+                f(star, c);
+            }
+        });
+    }
+
+    /// The nearest star within `radius_rad` of `center` and the second nearest, as
+    /// `(index, cos_angle)`; either may be `None`.
+    pub fn nearest_two(
+        &self,
+        vectors: &[Vector3<f64>],
+        center: &Vector3<f64>,
+        radius_rad: f64,
+    ) -> (Option<Hit>, Option<Hit>) {
+        let mut best: Option<Hit> = None;
+        let mut second: Option<Hit> = None;
+        self.for_each_in_cone(vectors, center, radius_rad, |star, c| {
+            if best.is_none_or(|b| c > b.1) {
+                second = best;
+                best = Some((star, c));
+            } else if second.is_none_or(|s| c > s.1) {
+                second = Some((star, c));
+            }
+        });
+        (best, second)
+    }
+
+    /// Every star whose zone and RA window may hold points within `radius_rad` of `center`.
+    fn for_each_candidate(&self, center: &Vector3<f64>, radius_rad: f64, mut f: impl FnMut(u32)) {
+        let n_zones = self.zone_count();
+        let (ra_c, dec_c) = unit_to_radec(center);
+        let dec_lo = dec_c - radius_rad;
+        let dec_hi = dec_c + radius_rad;
+        let z_lo = zone_of(dec_lo.max(-FRAC_PI_2), self.zone_height_rad, n_zones);
+        let z_hi = zone_of(dec_hi.min(FRAC_PI_2), self.zone_height_rad, n_zones);
+        // Half-width in RA of the cone (exact maximum over the cone), or the whole circle when
+        // the cone holds a pole.
+        let half_width = if dec_hi >= FRAC_PI_2 || dec_lo <= -FRAC_PI_2 {
+            None
+        } else {
+            let s = radius_rad.sin() / dec_c.cos();
+            if s >= 1.0 {
+                None
+            } else {
+                Some(s.asin() + 1e-12)
+            }
+        };
+        for z in z_lo..=z_hi {
+            let (a, b) = (self.zone_start[z] as usize, self.zone_start[z + 1] as usize);
+            if a == b {
+                continue;
+            }
+            match half_width {
+                None => self.order[a..b].iter().for_each(|&s| f(s)),
+                Some(w) => {
+                    let ras = &self.ra_rad[a..b];
+                    let lo = ra_c - w;
+                    let hi = ra_c + w;
+                    let mut scan = |lo: f64, hi: f64| {
+                        let i = ras.partition_point(|&r| r < lo);
+                        let j = ras.partition_point(|&r| r <= hi);
+                        self.order[a + i..a + j].iter().for_each(|&s| f(s));
+                    };
+                    if lo < 0.0 {
+                        scan(0.0, hi);
+                        scan(lo + TAU, TAU);
+                    } else if hi >= TAU {
+                        scan(lo, TAU);
+                        scan(0.0, hi - TAU);
+                    } else {
+                        scan(lo, hi);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[inline]
+fn zone_of(dec_rad: f64, zone_height_rad: f64, n_zones: usize) -> usize {
+    (((dec_rad + FRAC_PI_2) / zone_height_rad) as usize).min(n_zones - 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::radec_to_unit;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn cone_query_matches_brute_force() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let v: Vec<_> = (0..3000)
+            .map(|_| {
+                radec_to_unit(
+                    rng.random_range(0.0..TAU),
+                    rng.random_range(-1.0f64..1.0).asin(),
+                )
+            })
+            .collect();
+        let idx = ZoneIndex::new(&v, 1f64.to_radians());
+        for _ in 0..300 {
+            let c = radec_to_unit(
+                rng.random_range(0.0..TAU),
+                rng.random_range(-1.0f64..1.0).asin(),
+            );
+            let r = rng.random_range(0.0..0.6);
+            let mut got = Vec::new();
+            idx.for_each_in_cone(&v, &c, r, |s, _| got.push(s));
+            got.sort_unstable();
+            let want: Vec<u32> = (0..v.len() as u32)
+                .filter(|&i| v[i as usize].dot(&c) >= r.cos())
+                .collect();
+            assert_eq!(got, want);
+        }
+    }
+}
