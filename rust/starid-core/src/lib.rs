@@ -21,26 +21,24 @@
 //! ## Example
 //! ```
 //! use std::sync::Arc;
-//! use starid_core::{simulate, Camera, Catalog, IdentifyConfig, SimConfig, Solver};
+//! use starid_core::simulate::{random_catalog, simulate, SimConfig};
+//! use starid_core::{Camera, IdentifyConfig, Solver};
 //!
-//! // A toy catalogue: a 1° grid of stars over a patch of sky.
-//! let (mut ids, mut ra, mut dec, mut mag) = (vec![], vec![], vec![], vec![]);
-//! for i in 0..30 {
-//!     for j in 0..30 {
-//!         ids.push((i * 30 + j) as i64);
-//!         ra.push(i as f64 * 1.0 + 0.13 * j as f64);
-//!         dec.push(j as f64 * 1.0 - 15.0 + 0.07 * (i * i % 7) as f64);
-//!         mag.push(5.0);
-//!     }
-//! }
-//! let catalog = Arc::new(Catalog::new(ids, &ra, &dec, mag).unwrap());
-//! let camera = Camera::from_fov(8f64.to_radians(), 512.0, 512.0).unwrap();
+//! // A synthetic sky of 5000 stars, a 12° camera of 512 x 512 px and its pair index.
+//! let catalog = Arc::new(random_catalog(5000, 1.0, 6.0, 42).unwrap());
+//! let camera = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
 //! let solver = Solver::for_camera(catalog.clone(), &camera).unwrap();
-//! let truth = starid_core::geometry::attitude_from_radec_roll(15f64.to_radians(), 0.0, 0.3);
-//! let frame = simulate(&catalog, &camera, &SimConfig { r_icrs_to_cam: Some(truth), ..Default::default() }, 1).unwrap();
+//!
+//! // A frame from a random attitude with 0.2 px centroid noise, mirrored.
+//! let sim = SimConfig { noise_px: 0.2, mirrored: true, ..Default::default() };
+//! let frame = simulate(&catalog, &camera, &sim, 7).unwrap();
+//!
 //! let id = solver.identify(&frame.centroids, None, &camera, &IdentifyConfig::default()).unwrap();
-//! assert!(id.is_identified());
+//! assert!(id.is_identified() && id.mirrored);
 //! assert_eq!(id.catalog_index, frame.catalog_index);
+//! let r = id.r_icrs_to_cam.unwrap();
+//! assert!(r.angle_to(&frame.r_icrs_to_cam) < 1e-4);
+//! assert!(id.false_match_probability < 1e-6);
 //! ```
 //!
 //! ## Features

@@ -69,6 +69,27 @@ impl SimFrame {
     }
 }
 
+/// A synthetic sky: `n_stars` directions uniform on the sphere, magnitudes uniform in
+/// `[mag_lo, mag_hi]`, ids `1..=n_stars`. For tests, examples and benchmarks.
+///
+/// # Errors
+/// `InvalidInput` for zero stars or a magnitude range that is not finite and ordered.
+pub fn random_catalog(n_stars: usize, mag_lo: f64, mag_hi: f64, seed: u64) -> Result<Catalog> {
+    if n_stars == 0 || !mag_lo.is_finite() || !mag_hi.is_finite() || mag_lo > mag_hi {
+        return Err(Error::invalid_input("random_catalog needs n_stars > 0 and finite mag_lo <= mag_hi"));
+    }
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut ra = Vec::with_capacity(n_stars);
+    let mut dec = Vec::with_capacity(n_stars);
+    let mut mag = Vec::with_capacity(n_stars);
+    for _ in 0..n_stars {
+        ra.push(rng.random_range(0.0..360.0));
+        dec.push(rng.random_range(-1.0f64..=1.0).asin().to_degrees());
+        mag.push(if mag_lo == mag_hi { mag_lo } else { rng.random_range(mag_lo..mag_hi) });
+    }
+    Catalog::new((1..=n_stars as i64).collect(), &ra, &dec, mag)
+}
+
 /// A uniformly distributed random rotation.
 pub fn random_rotation(rng: &mut impl Rng) -> Rotation3<f64> {
     let v = Vector4::from_fn(|_, _| StandardNormal.sample(rng));
