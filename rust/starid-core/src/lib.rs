@@ -36,8 +36,11 @@
 //! let id = solver.identify(&frame.centroids, None, &camera, &IdentifyConfig::default()).unwrap();
 //! assert!(id.is_identified() && id.mirrored);
 //! assert_eq!(id.catalog_index, frame.catalog_index);
+//! // Boresight within 20″; the roll is less precise (stars sit at most 360 px from the axis).
 //! let r = id.r_icrs_to_cam.unwrap();
-//! assert!(r.angle_to(&frame.r_icrs_to_cam) < 1e-4);
+//! let z = nalgebra::Vector3::z();
+//! let boresight_error = r.inverse_transform_vector(&z).angle(&frame.r_icrs_to_cam.inverse_transform_vector(&z));
+//! assert!(boresight_error < 1e-4 && r.angle_to(&frame.r_icrs_to_cam) < 1e-3);
 //! assert!(id.false_match_probability < 1e-6);
 //! ```
 //!
