@@ -98,7 +98,11 @@ impl Default for IdentifyConfig {
 }
 
 impl IdentifyConfig {
-    fn validate(&self) -> Result<()> {
+    /// Check every setting.
+    ///
+    /// # Errors
+    /// `InvalidInput` naming the first setting out of its domain.
+    pub fn validate(&self) -> Result<()> {
         if let Some(s) = self.centroid_sigma_px {
             if !s.is_finite() || s <= 0.0 || s > 1000.0 {
                 return Err(Error::invalid_input(format!(

@@ -76,7 +76,9 @@ impl SimFrame {
 /// `InvalidInput` for zero stars or a magnitude range that is not finite and ordered.
 pub fn random_catalog(n_stars: usize, mag_lo: f64, mag_hi: f64, seed: u64) -> Result<Catalog> {
     if n_stars == 0 || !mag_lo.is_finite() || !mag_hi.is_finite() || mag_lo > mag_hi {
-        return Err(Error::invalid_input("random_catalog needs n_stars > 0 and finite mag_lo <= mag_hi"));
+        return Err(Error::invalid_input(
+            "random_catalog needs n_stars > 0 and finite mag_lo <= mag_hi",
+        ));
     }
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let mut ra = Vec::with_capacity(n_stars);
@@ -85,7 +87,11 @@ pub fn random_catalog(n_stars: usize, mag_lo: f64, mag_hi: f64, seed: u64) -> Re
     for _ in 0..n_stars {
         ra.push(rng.random_range(0.0..360.0));
         dec.push(rng.random_range(-1.0f64..=1.0).asin().to_degrees());
-        mag.push(if mag_lo == mag_hi { mag_lo } else { rng.random_range(mag_lo..mag_hi) });
+        mag.push(if mag_lo == mag_hi {
+            mag_lo
+        } else {
+            rng.random_range(mag_lo..mag_hi)
+        });
     }
     Catalog::new((1..=n_stars as i64).collect(), &ra, &dec, mag)
 }

@@ -1,1 +1,260 @@
-//! placeholder
+//! `starid._starid`: Python bindings of starid-core.
+//!
+//! Conversion, validation, GIL handling and error mapping only; every algorithm lives in
+//! starid-core. Long calls release the GIL through [`run_core`].
+
+mod catalog;
+mod convert;
+mod errors;
+mod outcome;
+
+use std::sync::Arc;
+
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
+
+use crate::catalog::PyCatalog;
+use crate::errors::{CatalogError, PyStaridError, StaridError};
+
+/// Run core work with the GIL released and turn its error into the matching Python exception.
+pub fn run_core<T, F>(py: Python<'_>, f: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce() -> starid_core::Result<T> + Send,
+{
+    py.detach(f).map_err(|e| PyStaridError(e).into())
+}
+
+/// Settings of identification (see `starid.identify`).
+#[pyclass(frozen, name = "IdentifyConfig", module = "starid._starid")]
+#[derive(Clone)]
+struct PyIdentifyConfig {
+    inner: IdentifyConfig,
+}
+
+#[pymethods]
+impl PyIdentifyConfig {
+    #[new]
+    #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
+                        max_search_stars=None, max_hypotheses=None, allow_mirrored=None))]
+    fn new(
+        centroid_sigma_px: Option<f64>,
+        max_false_match_prob: Option<f64>,
+        min_matches: Option<usize>,
+        max_search_stars: Option<usize>,
+        max_hypotheses: Option<usize>,
+        allow_mirrored: Option<bool>,
+    ) -> PyResult<Self> {
+        let d = IdentifyConfig::default();
+        let inner = IdentifyConfig {
+            centroid_sigma_px,
+            max_false_match_prob: max_false_match_prob.unwrap_or(d.max_false_match_prob),
+            min_matches: min_matches.unwrap_or(d.min_matches),
+            max_search_stars: max_search_stars.unwrap_or(d.max_search_stars),
+            max_hypotheses: max_hypotheses.unwrap_or(d.max_hypotheses),
+            allow_mirrored: allow_mirrored.unwrap_or(d.allow_mirrored),
+        };
+        inner.validate().map_err(PyStaridError)?;
+        Ok(Self { inner })
+    }
+
+    #[getter]
+    fn centroid_sigma_px(&self) -> Option<f64> {
+        self.inner.centroid_sigma_px
+    }
+    #[getter]
+    fn max_false_match_prob(&self) -> f64 {
+        self.inner.max_false_match_prob
+    }
+    #[getter]
+    fn min_matches(&self) -> usize {
+        self.inner.min_matches
+    }
+    #[getter]
+    fn max_search_stars(&self) -> usize {
+        self.inner.max_search_stars
+    }
+    #[getter]
+    fn max_hypotheses(&self) -> usize {
+        self.inner.max_hypotheses
+    }
+    #[getter]
+    fn allow_mirrored(&self) -> bool {
+        self.inner.allow_mirrored
+    }
+
+    fn __repr__(&self) -> String {
+        let c = &self.inner;
+        format!(
+            "IdentifyConfig(centroid_sigma_px={}, max_false_match_prob={:e}, min_matches={}, max_search_stars={}, \
+             max_hypotheses={}, allow_mirrored={})",
+            c.centroid_sigma_px.map_or("None".to_string(), |s| s.to_string()),
+            c.max_false_match_prob,
+            c.min_matches,
+            c.max_search_stars,
+            c.max_hypotheses,
+            if c.allow_mirrored { "True" } else { "False" }
+        )
+    }
+}
+
+fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Camera> {
+    Camera::from_fov(fov_deg.to_radians(), width_px, height_px).map_err(|e| PyStaridError(e).into())
+}
+
+/// Identify one frame; returns a dict of plain values and numpy arrays.
+#[pyfunction]
+#[pyo3(signature = (catalog, xy, magnitudes, width_px, height_px, fov_deg, config))]
+fn identify<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    xy: PyReadonlyArray2<'py, f64>,
+    magnitudes: Option<PyReadonlyArray1<'py, f64>>,
+    width_px: f64,
+    height_px: f64,
+    fov_deg: f64,
+    config: &Bound<'py, PyIdentifyConfig>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let cam = camera(fov_deg, width_px, height_px)?;
+    let centroids = convert::centroids("xy", &xy)?;
+    let mags = magnitudes
+        .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
+        .transpose()?;
+    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
+    let cfg = config.get().inner.clone();
+    let id = run_core(py, move || {
+        solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
+    })?;
+    outcome::identification(py, &catalog.get().inner, &id, &cam)
+}
+
+/// Identify many frames of one camera in parallel (GIL released); results in input order.
+#[pyfunction]
+#[pyo3(signature = (catalog, xys, magnitudes, width_px, height_px, fov_deg, config, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn identify_many<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    xys: Vec<PyReadonlyArray2<'py, f64>>,
+    magnitudes: Option<Vec<Option<PyReadonlyArray1<'py, f64>>>>,
+    width_px: f64,
+    height_px: f64,
+    fov_deg: f64,
+    config: &Bound<'py, PyIdentifyConfig>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyList>> {
+    if threads == Some(0) {
+        return Err(PyValueError::new_err(
+            "threads must be at least 1 (or None for all cores)",
+        ));
+    }
+    let cam = camera(fov_deg, width_px, height_px)?;
+    let mut frames = Vec::with_capacity(xys.len());
+    for (i, xy) in xys.iter().enumerate() {
+        frames.push(convert::centroids(&format!("frame {i}"), xy)?);
+    }
+    let mags: Vec<Option<Vec<f64>>> = match magnitudes {
+        None => vec![None; frames.len()],
+        Some(m) => {
+            if m.len() != frames.len() {
+                return Err(PyValueError::new_err(format!(
+                    "magnitudes has {} entries for {} frames",
+                    m.len(),
+                    frames.len()
+                )));
+            }
+            m.iter()
+                .zip(&frames)
+                .enumerate()
+                .map(|(i, (m, f))| {
+                    m.as_ref()
+                        .map(|m| {
+                            convert::vector(&format!("magnitudes of frame {i}"), m, Some(f.len()))
+                        })
+                        .transpose()
+                })
+                .collect::<PyResult<_>>()?
+        }
+    };
+    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
+    let cfg = config.get().inner.clone();
+    let results = run_core(py, move || {
+        let refs: Vec<_> = frames
+            .iter()
+            .zip(&mags)
+            .map(|(f, m)| (f.as_slice(), m.as_deref()))
+            .collect();
+        solver.identify_batch(&refs, &cam, &cfg, threads)
+    })?;
+    let out = PyList::empty(py);
+    for id in &results {
+        out.append(outcome::identification(py, &catalog.get().inner, id, &cam)?)?;
+    }
+    Ok(out)
+}
+
+/// Simulate one frame; returns a dict with the centroids and the truth.
+#[pyfunction]
+#[pyo3(signature = (catalog, fov_deg, width_px, height_px, seed, attitude_deg=None, mag_limit=None,
+                    noise_px=0.0, mag_noise=0.0, false_stars=0, drop_fraction=0.0, mirrored=false))]
+#[allow(clippy::too_many_arguments)]
+fn simulate<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    fov_deg: f64,
+    width_px: f64,
+    height_px: f64,
+    seed: u64,
+    attitude_deg: Option<(f64, f64, f64)>,
+    mag_limit: Option<f64>,
+    noise_px: f64,
+    mag_noise: f64,
+    false_stars: usize,
+    drop_fraction: f64,
+    mirrored: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let cam = camera(fov_deg, width_px, height_px)?;
+    let r = match attitude_deg {
+        None => None,
+        Some((ra, dec, roll)) => {
+            if !(ra.is_finite() && roll.is_finite() && (-90.0..=90.0).contains(&dec)) {
+                return Err(PyValueError::new_err(format!(
+                    "attitude_deg must be finite (ra, dec, roll) with dec in [-90, 90], got ({ra}, {dec}, {roll})"
+                )));
+            }
+            Some(geometry::attitude_from_radec_roll(
+                ra.to_radians(),
+                dec.to_radians(),
+                roll.to_radians(),
+            ))
+        }
+    };
+    let config = sim::SimConfig {
+        r_icrs_to_cam: r,
+        mag_limit,
+        noise_px,
+        mag_noise,
+        false_stars,
+        drop_fraction,
+        mirrored,
+    };
+    let cat = Arc::clone(&catalog.get().inner);
+    let frame = run_core(py, move || sim::simulate(&cat, &cam, &config, seed))?;
+    outcome::frame(py, &catalog.get().inner, &frame)
+}
+
+#[pymodule(gil_used = false)]
+fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<PyCatalog>()?;
+    m.add_class::<PyIdentifyConfig>()?;
+    m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(identify_many, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add("StaridError", m.py().get_type::<StaridError>())?;
+    m.add("CatalogError", m.py().get_type::<CatalogError>())?;
+    Ok(())
+}

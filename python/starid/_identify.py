@@ -1,0 +1,420 @@
+"""Identification, batch identification and the frame simulator: the Python surface."""
+
+from __future__ import annotations
+
+import math
+import os
+import secrets
+from dataclasses import dataclass, field
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _starid
+from ._catalog import Catalog, resolve_catalog
+
+__all__ = ["Frame", "Identification", "identify", "identify_many", "simulate"]
+
+CatalogLike = Union[Catalog, str, "os.PathLike[str]", None]
+
+
+@dataclass(frozen=True, repr=False)
+class Identification:
+    """The result of identifying one frame.
+
+    Attributes
+    ----------
+    ids : ndarray of int64
+        Catalogue id of each input centroid, in input order; -1 where unidentified.
+    ok : bool
+        Whether a verified solution was found. When False every id is -1.
+    status : str
+        ``"identified"``, ``"no_match"`` or ``"hypothesis_limit"``.
+    ra_deg, dec_deg, roll_deg : float
+        Boresight and roll (NaN unless ``ok``). At roll 0 image-up (−y) points to celestial
+        north and east is left; increasing roll turns the camera's +x axis toward +y.
+    quaternion : ndarray (4,) or None
+        Rotation ICRS → camera as ``[w, x, y, z]`` (scalar first, w >= 0).
+    rotation_matrix : ndarray (3, 3) or None
+        ``v_cam = R @ v_icrs``; its rows are the camera axes in ICRS.
+    residuals_arcsec : ndarray of float
+        Angle between each centroid's direction and its catalogue star; NaN where unidentified.
+    mirrored : bool
+        The frame is mirrored (an odd number of reflections). The attitude is then that of the
+        image with its x axis reversed (``x -> W - x``).
+    false_match_probability : float
+        Bound on the probability that this solution is a false match (1 when not ``ok``).
+    n_matched : int
+        Number of identified centroids.
+    centroid_sigma_px : float
+        Centroid noise estimated from the residuals (1 sigma per axis, pixels).
+    time_s : float
+        Time spent identifying (inside the Rust core; excludes Python overhead).
+    fov_deg, focal_px : float
+        The camera's field of view across the width and its focal length in pixels.
+    """
+
+    ids: npt.NDArray[np.int64]
+    ok: bool
+    status: str
+    ra_deg: float
+    dec_deg: float
+    roll_deg: float
+    quaternion: Optional[npt.NDArray[np.float64]]
+    rotation_matrix: Optional[npt.NDArray[np.float64]]
+    residuals_arcsec: npt.NDArray[np.float64]
+    mirrored: bool
+    false_match_probability: float
+    n_matched: int
+    centroid_sigma_px: float
+    match_radius_arcsec: float
+    hypotheses: int
+    time_s: float
+    fov_deg: float
+    focal_px: float
+
+    @classmethod
+    def _from_native(cls, d: dict[str, Any]) -> "Identification":
+        d = dict(d)
+        d.pop("catalog_index", None)
+        return cls(**d)
+
+    @property
+    def boresight_radec_deg(self) -> tuple[float, float]:
+        """``(ra_deg, dec_deg)`` of the boresight."""
+        return (self.ra_deg, self.dec_deg)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain Python values (lists, floats, None), ready for ``json.dumps``."""
+        out: dict[str, Any] = {}
+        for k in self.__dataclass_fields__:
+            v = getattr(self, k)
+            if isinstance(v, np.ndarray):
+                v = [None if isinstance(x, float) and math.isnan(x) else x for x in v.tolist()]
+            elif isinstance(v, float) and math.isnan(v):
+                v = None
+            out[k] = v
+        return out
+
+    def __repr__(self) -> str:
+        n = len(self.ids)
+        if not self.ok:
+            return (
+                f"Identification(ok=False, status={self.status!r}, 0/{n} stars identified, "
+                f"{self.hypotheses} hypotheses, time {self.time_s * 1e3:.3f} ms)"
+            )
+        rms = float(np.sqrt(np.nanmean(self.residuals_arcsec**2)))
+        return (
+            f"Identification(ok=True, {self.n_matched}/{n} stars identified, "
+            f"ra={self.ra_deg:.5f} deg, dec={self.dec_deg:+.5f} deg, roll={self.roll_deg:.4f} deg, "
+            f"mirrored={self.mirrored}, rms residual {rms:.2f} arcsec, "
+            f"P(false match) <= {self.false_match_probability:.1e}, time {self.time_s * 1e3:.3f} ms)"
+        )
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A simulated frame and its truth (see :func:`simulate`)."""
+
+    xy: npt.NDArray[np.float64]
+    magnitudes: npt.NDArray[np.float64]
+    true_ids: npt.NDArray[np.int64]
+    ra_deg: float
+    dec_deg: float
+    roll_deg: float
+    rotation_matrix: npt.NDArray[np.float64]
+    quaternion: npt.NDArray[np.float64]
+    mirrored: bool
+    fov_deg: float
+    image_size: tuple[float, float]
+    seed: int = field(default=0)
+
+    @property
+    def n_real(self) -> int:
+        """Number of centroids that are catalogue stars."""
+        return int(np.count_nonzero(self.true_ids >= 0))
+
+
+def _image_size(image_size: Any) -> tuple[float, float]:
+    if image_size is None:
+        raise ValueError("image_size=(width_px, height_px) is required")
+    try:
+        w, h = (float(v) for v in image_size)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"image_size must be a pair (width_px, height_px), got {image_size!r}") from e
+    if not (math.isfinite(w) and math.isfinite(h) and w >= 1 and h >= 1):
+        raise ValueError(f"image_size must be positive and finite, got {image_size!r}")
+    return w, h
+
+
+def _fov(fov_deg: Any) -> float:
+    if fov_deg is None:
+        raise ValueError(
+            "fov_deg (the full field of view across the image width, degrees) is required: "
+            "identification with an unknown field of view is not available yet"
+        )
+    try:
+        fov = float(fov_deg)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"fov_deg must be a number, got {fov_deg!r}") from e
+    if not (math.isfinite(fov) and 0.0 < fov < 179.0):
+        raise ValueError(f"fov_deg must be in (0, 179) degrees, got {fov_deg!r}")
+    return fov
+
+
+def _camera_diagonal_deg(fov_deg: float, image_size: tuple[float, float]) -> float:
+    w, h = _image_size(image_size)
+    f = 0.5 * w / math.tan(math.radians(_fov(fov_deg)) / 2)
+    return math.degrees(2 * math.atan(0.5 * math.hypot(w, h) / f))
+
+
+def _xy(xy: Any, name: str = "xy") -> npt.NDArray[np.float64]:
+    try:
+        a = np.ascontiguousarray(xy, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must be an (N, 2) array of pixel centroids: {e}") from e
+    if a.ndim != 2 or a.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (N, 2) holding (x, y) pixel centroids, got shape {a.shape}")
+    return a
+
+
+def _magnitudes(magnitudes: Any, n: int) -> Optional[npt.NDArray[np.float64]]:
+    if magnitudes is None:
+        return None
+    try:
+        m = np.ascontiguousarray(magnitudes, dtype=np.float64).ravel()
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"magnitudes must be numeric: {e}") from e
+    if m.shape[0] != n:
+        raise ValueError(f"magnitudes has {m.shape[0]} values for {n} centroids")
+    return m
+
+
+def _config(
+    centroid_sigma_px: Optional[float],
+    max_false_match_prob: float,
+    min_matches: int,
+    max_search_stars: int,
+    max_hypotheses: int,
+    allow_mirrored: bool,
+) -> Any:
+    return _starid.IdentifyConfig(
+        centroid_sigma_px=None if centroid_sigma_px is None else float(centroid_sigma_px),
+        max_false_match_prob=float(max_false_match_prob),
+        min_matches=int(min_matches),
+        max_search_stars=int(max_search_stars),
+        max_hypotheses=int(max_hypotheses),
+        allow_mirrored=bool(allow_mirrored),
+    )
+
+
+def identify(
+    xy: npt.ArrayLike,
+    catalog: CatalogLike = None,
+    fov_deg: Optional[float] = None,
+    image_size: Optional[tuple[float, float]] = None,
+    *,
+    magnitudes: Optional[npt.ArrayLike] = None,
+    centroid_sigma_px: Optional[float] = None,
+    max_false_match_prob: float = 1e-3,
+    min_matches: int = 4,
+    max_search_stars: int = 24,
+    max_hypotheses: int = 200_000,
+    allow_mirrored: bool = True,
+) -> Identification:
+    """Identify the stars of one frame (lost in space: no prior attitude).
+
+    Parameters
+    ----------
+    xy : array_like, shape (N, 2)
+        Pixel centroids: x to the right, y down, origin at the sensor's top-left corner.
+    catalog : Catalog, path or None
+        The star catalogue; None uses the bundled Hipparcos catalogue (Hp <= 6.5).
+    fov_deg : float
+        Full field of view across the image width, degrees.
+    image_size : (width_px, height_px)
+        Sensor size; the optical axis meets it at ``(width/2, height/2)``.
+    magnitudes : array_like, shape (N,), optional
+        Instrument magnitude of each centroid (smaller is brighter); the search starts from
+        the brightest stars.
+    centroid_sigma_px : float, optional
+        Centroid noise (1 sigma per axis). By default the search adapts: tight tolerances
+        first (0.2 px), then 0.7 px, then 2.5 px.
+    max_false_match_prob : float
+        A solution is reported only if its bound on the probability of a false match is at
+        most this.
+    min_matches : int
+        Fewest identified stars in a reported solution (at least 4).
+    max_search_stars : int
+        Centroids (brightest first) used to form search triangles; all are verified.
+    max_hypotheses : int
+        Give up after testing this many catalogue triangles.
+    allow_mirrored : bool
+        Also search mirrored frames; the result says which handedness was found.
+
+    Returns
+    -------
+    Identification
+        ``ok`` False (and every id -1) when no solution verifies; never a guess.
+
+    Raises
+    ------
+    ValueError
+        For fewer than 4 centroids, NaN/infinite or duplicate centroids, centroids off the
+        sensor, a field of view outside (0, 179) degrees, or inconsistent arguments.
+
+    Examples
+    --------
+    >>> import starid
+    >>> frame = starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=3, noise_px=0.2)
+    >>> res = starid.identify(frame.xy, fov_deg=12.0, image_size=(512, 512))
+    >>> res.ok, bool((res.ids == frame.true_ids).all())
+    (True, True)
+    """
+    cat = resolve_catalog(catalog)
+    w, h = _image_size(image_size)
+    fov = _fov(fov_deg)
+    a = _xy(xy)
+    m = _magnitudes(magnitudes, a.shape[0])
+    cfg = _config(centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored)
+    return Identification._from_native(_starid.identify(cat._native, a, m, w, h, fov, cfg))
+
+
+def identify_many(
+    frames: Sequence[npt.ArrayLike],
+    catalog: CatalogLike = None,
+    fov_deg: Optional[float] = None,
+    image_size: Optional[tuple[float, float]] = None,
+    *,
+    magnitudes: Optional[Sequence[Optional[npt.ArrayLike]]] = None,
+    threads: Optional[int] = None,
+    centroid_sigma_px: Optional[float] = None,
+    max_false_match_prob: float = 1e-3,
+    min_matches: int = 4,
+    max_search_stars: int = 24,
+    max_hypotheses: int = 200_000,
+    allow_mirrored: bool = True,
+) -> list[Identification]:
+    """Identify many frames of one camera in parallel (Rust threads, GIL released).
+
+    Arguments as :func:`identify`; ``frames`` is a sequence of (N_i, 2) centroid arrays and
+    ``magnitudes`` an optional sequence of per-frame magnitude arrays (or None entries).
+    ``threads`` limits the worker threads (None: all cores). Results come in input order and
+    do not depend on the thread count.
+
+    Examples
+    --------
+    >>> import starid
+    >>> frames = [starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=s).xy for s in range(4)]
+    >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
+    [True, True, True, True]
+    """
+    cat = resolve_catalog(catalog)
+    w, h = _image_size(image_size)
+    fov = _fov(fov_deg)
+    xys = [_xy(f, f"frame {i}") for i, f in enumerate(frames)]
+    mags = None
+    if magnitudes is not None:
+        if len(magnitudes) != len(xys):
+            raise ValueError(f"magnitudes has {len(magnitudes)} entries for {len(xys)} frames")
+        mags = [_magnitudes(m, a.shape[0]) for m, a in zip(magnitudes, xys)]
+    if threads is not None and int(threads) < 1:
+        raise ValueError(f"threads must be at least 1 (or None for all cores), got {threads}")
+    cfg = _config(centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored)
+    out = _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
+    return [Identification._from_native(d) for d in out]
+
+
+def simulate(
+    catalog: CatalogLike = None,
+    fov_deg: float = 12.0,
+    image_size: tuple[float, float] = (512, 512),
+    *,
+    attitude_deg: Optional[tuple[float, float, float]] = None,
+    seed: Optional[int] = None,
+    mag_limit: Optional[float] = None,
+    noise_px: float = 0.0,
+    mag_noise: float = 0.0,
+    false_stars: int = 0,
+    drop_fraction: float = 0.0,
+    mirrored: bool = False,
+) -> Frame:
+    """Simulate the centroids a star tracker would see.
+
+    Parameters
+    ----------
+    catalog : Catalog, path or None
+        Stars to draw from (None: the bundled catalogue).
+    fov_deg, image_size
+        Field of view across the width (degrees) and sensor size (pixels).
+    attitude_deg : (ra, dec, roll) in degrees, optional
+        The pointing; by default a uniformly random attitude.
+    seed : int, optional
+        Seed of the random generator (random when None); the same seed gives the same frame.
+    mag_limit : float, optional
+        Only stars with ``mag <= mag_limit`` appear.
+    noise_px : float
+        Gaussian centroid noise, 1 sigma per axis.
+    mag_noise : float
+        Gaussian noise on the reported magnitudes (shuffles their order).
+    false_stars : int
+        False stars spread uniformly over the sensor.
+    drop_fraction : float
+        Probability that a real star is missing.
+    mirrored : bool
+        Reverse the x axis (``x -> W - x``), as an odd number of reflections would.
+
+    Returns
+    -------
+    Frame
+        ``xy``, ``magnitudes``, ``true_ids`` (-1 for false stars) and the true attitude.
+
+    Examples
+    --------
+    >>> import starid
+    >>> f = starid.simulate(fov_deg=12.0, image_size=(512, 512), attitude_deg=(83.8, -5.4, 0.0), seed=1)
+    >>> f.n_real > 10
+    True
+    """
+    cat = resolve_catalog(catalog)
+    w, h = _image_size(image_size)
+    fov = _fov(fov_deg)
+    if seed is None:
+        seed = secrets.randbits(63)
+    seed = int(seed)
+    if not 0 <= seed < 2**64:
+        raise ValueError(f"seed must be in [0, 2**64), got {seed}")
+    att = None if attitude_deg is None else tuple(float(v) for v in attitude_deg)
+    if att is not None and len(att) != 3:
+        raise ValueError("attitude_deg must be (ra_deg, dec_deg, roll_deg)")
+    if int(false_stars) < 0:
+        raise ValueError(f"false_stars must be >= 0, got {false_stars}")
+    d = _starid.simulate(
+        cat._native,
+        fov,
+        w,
+        h,
+        seed,
+        att,
+        None if mag_limit is None else float(mag_limit),
+        float(noise_px),
+        float(mag_noise),
+        int(false_stars),
+        float(drop_fraction),
+        bool(mirrored),
+    )
+    return Frame(
+        xy=d["xy"],
+        magnitudes=d["magnitudes"],
+        true_ids=d["true_ids"],
+        ra_deg=d["ra_deg"],
+        dec_deg=d["dec_deg"],
+        roll_deg=d["roll_deg"],
+        rotation_matrix=d["rotation_matrix"],
+        quaternion=d["quaternion"],
+        mirrored=d["mirrored"],
+        fov_deg=fov,
+        image_size=(w, h),
+        seed=seed,
+    )

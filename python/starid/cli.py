@@ -1,0 +1,199 @@
+"""The ``starid`` command: identify star lists, simulate frames, describe catalogues."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+from ._catalog import Catalog, resolve_catalog
+from ._identify import Identification, identify, simulate
+from .starlist import read_star_list
+
+EXAMPLE_FRAME = Path(__file__).parent / "data" / "example_frame.csv"
+EXAMPLE_FOV_DEG = 12.0
+EXAMPLE_SIZE = (512.0, 512.0)
+
+
+def _size(text: str) -> tuple[float, float]:
+    try:
+        w, h = text.lower().split("x")
+        return float(w), float(h)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels, e.g. 512x512, got {text!r}") from None
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="starid", description="Lost-in-space star identification.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    ident = sub.add_parser("identify", help="identify the stars of centroid files")
+    ident.add_argument("files", nargs="*", type=Path, help="star lists: CSV or text, columns label,x,y[,mag] or x,y")
+    ident.add_argument("--example", action="store_true", help="identify the bundled example frame (12 deg, 512x512)")
+    ident.add_argument("--fov-deg", type=float, help="full field of view across the image width, degrees")
+    ident.add_argument("--size", type=_size, help="sensor size WIDTHxHEIGHT in pixels, e.g. 512x512")
+    ident.add_argument("--catalog", type=Path, help="catalogue file (CSV/TSV/text/.mat); default: bundled Hipparcos")
+    ident.add_argument("--sigma-px", type=float, help="centroid noise, 1 sigma in pixels (default: adaptive)")
+    ident.add_argument("--max-false-prob", type=float, default=1e-3, help="largest accepted false-match bound")
+    ident.add_argument("--no-magnitudes", action="store_true", help="ignore a magnitude column")
+    ident.add_argument("--json", action="store_true", help="print JSON instead of tables")
+
+    sim = sub.add_parser("simulate", help="write a simulated star list (label,x,y,mag) and print its truth")
+    sim.add_argument("output", type=Path)
+    sim.add_argument("--fov-deg", type=float, default=12.0)
+    sim.add_argument("--size", type=_size, default=(512.0, 512.0))
+    sim.add_argument("--catalog", type=Path)
+    sim.add_argument("--seed", type=int)
+    sim.add_argument("--attitude-deg", type=float, nargs=3, metavar=("RA", "DEC", "ROLL"))
+    sim.add_argument("--mag-limit", type=float, help="only catalogue stars with mag <= this appear")
+    sim.add_argument("--noise-px", type=float, default=0.2)
+    sim.add_argument("--mag-noise", type=float, default=0.0)
+    sim.add_argument("--false-stars", type=int, default=0)
+    sim.add_argument("--drop-fraction", type=float, default=0.0)
+    sim.add_argument("--mirrored", action="store_true")
+
+    info = sub.add_parser("catalog", help="describe a catalogue and its pair index")
+    info.add_argument("catalog", type=Path, nargs="?", help="catalogue file; default: bundled Hipparcos")
+    info.add_argument("--fov-deg", type=float, default=12.0)
+    info.add_argument("--size", type=_size, default=(512.0, 512.0))
+    return p
+
+
+def _table(labels: Sequence[str], res: Identification) -> str:
+    width = max([5] + [len(s) for s in labels])
+    lines = [f"{'label':<{width}}  {'id':>8}  {'residual':>10}"]
+    for label, cid, r in zip(labels, res.ids, res.residuals_arcsec):
+        lines.append(f"{label:<{width}}  {cid:>8d}  " + (f"{r:>8.2f}\"" if cid >= 0 else f"{'-':>9}"))
+    return "\n".join(lines)
+
+
+def _identify(args: argparse.Namespace) -> int:
+    files: list[Path] = list(args.files)
+    fov, size = args.fov_deg, args.size
+    if args.example:
+        files.append(EXAMPLE_FRAME)
+        fov = EXAMPLE_FOV_DEG if fov is None else fov
+        size = EXAMPLE_SIZE if size is None else size
+    if not files:
+        print("starid identify: give star-list files or --example", file=sys.stderr)
+        return 2
+    if fov is None or size is None:
+        print("starid identify: --fov-deg and --size are required", file=sys.stderr)
+        return 2
+    catalog = resolve_catalog(args.catalog)
+    results: list[dict[str, Any]] = []
+    failures = 0
+    show_progress = len(files) > 20 and not args.json and sys.stderr.isatty()
+    t0 = time.perf_counter()
+    for n, path in enumerate(files):
+        stars = read_star_list(path)
+        mags = None if args.no_magnitudes else stars.magnitudes
+        res = identify(
+            stars.xy,
+            catalog=catalog,
+            fov_deg=fov,
+            image_size=size,
+            magnitudes=mags,
+            centroid_sigma_px=args.sigma_px,
+            max_false_match_prob=args.max_false_prob,
+        )
+        failures += not res.ok
+        if args.json:
+            d = res.to_dict()
+            d["file"] = str(path)
+            d["labels"] = stars.labels
+            results.append(d)
+        elif show_progress:
+            print(f"\r{n + 1}/{len(files)} frames, {n + 1 - failures} identified", end="", file=sys.stderr)
+        else:
+            print(f"== {path}  ({len(stars.labels)} centroids)")
+            print(_table(stars.labels, res))
+            if res.ok:
+                q = np.array2string(res.quaternion, precision=9, separator=", ")
+                print(
+                    f"attitude: ra {res.ra_deg:.6f} deg, dec {res.dec_deg:+.6f} deg, roll {res.roll_deg:.5f} deg, "
+                    f"mirrored {res.mirrored}\nquaternion [w, x, y, z] (ICRS -> camera): {q}\n"
+                    f"identified {res.n_matched}/{len(res.ids)}, P(false match) <= {res.false_match_probability:.1e}, "
+                    f"noise {res.centroid_sigma_px:.2f} px"
+                )
+            else:
+                print(f"not identified ({res.status})")
+            print(f"time: {res.time_s * 1e3:.3f} ms\n")
+    if show_progress:
+        print(file=sys.stderr)
+    if args.json:
+        json.dump(results if len(results) != 1 else results[0], sys.stdout, indent=2)
+        print()
+    elif len(files) > 1:
+        print(f"{len(files) - failures}/{len(files)} frames identified in {time.perf_counter() - t0:.3f} s")
+    return 0 if failures == 0 else 1
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    frame = simulate(
+        resolve_catalog(args.catalog),
+        fov_deg=args.fov_deg,
+        image_size=args.size,
+        attitude_deg=None if args.attitude_deg is None else tuple(args.attitude_deg),
+        seed=args.seed,
+        mag_limit=args.mag_limit,
+        noise_px=args.noise_px,
+        mag_noise=args.mag_noise,
+        false_stars=args.false_stars,
+        drop_fraction=args.drop_fraction,
+        mirrored=args.mirrored,
+    )
+    with open(args.output, "w", encoding="utf-8") as f:
+        f.write("label,x,y,mag\n")
+        for i, ((x, y), m) in enumerate(zip(frame.xy, frame.magnitudes)):
+            f.write(f"s{i},{x:.4f},{y:.4f},{m:.3f}\n")
+    truth = {
+        "file": str(args.output),
+        "seed": frame.seed,
+        "ra_deg": frame.ra_deg,
+        "dec_deg": frame.dec_deg,
+        "roll_deg": frame.roll_deg,
+        "mirrored": frame.mirrored,
+        "true_ids": {f"s{i}": int(t) for i, t in enumerate(frame.true_ids)},
+    }
+    print(json.dumps(truth, indent=2))
+    return 0
+
+
+def _catalog_info(args: argparse.Namespace) -> int:
+    cat: Catalog = resolve_catalog(args.catalog)
+    print(repr(cat))
+    info = cat.index_info(args.fov_deg, args.size)
+    print(
+        f"pair index for {args.fov_deg:g} deg on {args.size[0]:g}x{args.size[1]:g} px: {info['pairs']} pairs "
+        f"up to {info['max_angle_deg']:.2f} deg, {info['memory_bytes'] / 1e6:.2f} MB, "
+        f"built in {info['build_time_s'] * 1e3:.1f} ms"
+    )
+    return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of the ``starid`` command."""
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "identify":
+            return _identify(args)
+        if args.command == "simulate":
+            return _simulate(args)
+        return _catalog_info(args)
+    except BrokenPipeError:
+        # The reader went away (e.g. `starid ... | head`): not an error of ours.
+        sys.stdout = None  # type: ignore[assignment]
+        return 0
+    except (ValueError, OSError) as e:
+        print(f"starid: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,161 @@
+//! `Catalog`: the native catalogue, with a cache of the pair indexes built for it.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use starid_core::{Catalog, Solver};
+
+use crate::convert;
+use crate::errors::PyStaridError;
+use crate::run_core;
+
+/// A star catalogue: ids, ICRS directions and magnitudes.
+#[pyclass(frozen, name = "Catalog", module = "starid._starid")]
+pub struct PyCatalog {
+    pub inner: Arc<Catalog>,
+    /// Pair indexes built so far, each for a largest angle.
+    solvers: Mutex<Vec<Arc<Solver>>>,
+}
+
+impl PyCatalog {
+    pub fn wrap(inner: Catalog) -> Self {
+        Self {
+            inner: Arc::new(inner),
+            solvers: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A solver whose pair index covers `max_angle_rad`, reusing a cached one when it is not
+    /// much larger than needed (a larger index is correct but slower to query).
+    pub fn solver(&self, py: Python<'_>, max_angle_rad: f64) -> PyResult<Arc<Solver>> {
+        let fits = |s: &Arc<Solver>| {
+            let m = s.pair_index().max_angle_rad();
+            m >= max_angle_rad && m <= 1.25 * max_angle_rad
+        };
+        if let Some(s) = self
+            .solvers
+            .lock()
+            .expect("solver cache poisoned")
+            .iter()
+            .find(|s| fits(s))
+        {
+            return Ok(s.clone());
+        }
+        let catalog = self.inner.clone();
+        // Build with a little margin so that nearby fields of view share one index.
+        let solver = Arc::new(run_core(py, move || {
+            Solver::new(catalog, max_angle_rad * 1.02)
+        })?);
+        let mut cache = self.solvers.lock().expect("solver cache poisoned");
+        cache.push(solver.clone());
+        Ok(solver)
+    }
+}
+
+#[pymethods]
+impl PyCatalog {
+    #[new]
+    fn new(
+        ids: PyReadonlyArray1<'_, i64>,
+        ra_deg: PyReadonlyArray1<'_, f64>,
+        dec_deg: PyReadonlyArray1<'_, f64>,
+        mag: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let ids: Vec<i64> = ids.as_array().iter().copied().collect();
+        let ra = convert::vector("ra_deg", &ra_deg, None)?;
+        let dec = convert::vector("dec_deg", &dec_deg, None)?;
+        let mag = convert::vector("mag", &mag, None)?;
+        Ok(Self::wrap(
+            Catalog::new(ids, &ra, &dec, mag).map_err(PyStaridError)?,
+        ))
+    }
+
+    /// Read a star table (CSV, TSV or whitespace; with or without a header).
+    #[staticmethod]
+    fn from_table_path(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        Ok(Self::wrap(run_core(py, move || Catalog::from_path(&path))?))
+    }
+
+    /// Read the Hipparcos 2 main catalogue, magnitude-limited and moved to an epoch.
+    #[staticmethod]
+    fn from_hip2_path(py: Python<'_>, path: PathBuf, mag_limit: f64, epoch: f64) -> PyResult<Self> {
+        Ok(Self::wrap(run_core(py, move || {
+            let file = std::fs::File::open(&path).map_err(|e| {
+                starid_core::Error::from(std::io::Error::new(
+                    e.kind(),
+                    format!("{}: {e}", path.display()),
+                ))
+            })?;
+            Catalog::from_hip2(std::io::BufReader::new(file), mag_limit, epoch)
+        })?))
+    }
+
+    fn filter_mag(&self, mag_limit: f64) -> PyResult<Self> {
+        Ok(Self::wrap(
+            self.inner.filter_mag(mag_limit).map_err(PyStaridError)?,
+        ))
+    }
+
+    #[getter]
+    fn ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        self.inner.ids().to_vec().into_pyarray(py)
+    }
+
+    #[getter]
+    fn ra_deg<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner
+            .ra_rad()
+            .iter()
+            .map(|r| r.to_degrees())
+            .collect::<Vec<_>>()
+            .into_pyarray(py)
+    }
+
+    #[getter]
+    fn dec_deg<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner
+            .dec_rad()
+            .iter()
+            .map(|r| r.to_degrees())
+            .collect::<Vec<_>>()
+            .into_pyarray(py)
+    }
+
+    #[getter]
+    fn mag<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.mag().to_vec().into_pyarray(py)
+    }
+
+    #[getter]
+    fn unit_vectors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let flat: Vec<f64> = self
+            .inner
+            .vectors()
+            .iter()
+            .flat_map(|v| [v.x, v.y, v.z])
+            .collect();
+        Array2::from_shape_vec((self.inner.len(), 3), flat)
+            .expect("3 columns")
+            .into_pyarray(py)
+    }
+
+    /// Build (or fetch from the cache) the pair index for frames whose stars are at most
+    /// `max_angle_deg` apart; returns its size and build time.
+    fn index_info<'py>(&self, py: Python<'py>, max_angle_deg: f64) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.solver(py, max_angle_deg.to_radians())?;
+        let d = PyDict::new(py);
+        d.set_item("pairs", s.pair_index().len())?;
+        d.set_item("max_angle_deg", s.pair_index().max_angle_rad().to_degrees())?;
+        d.set_item("memory_bytes", s.pair_index().memory_bytes())?;
+        d.set_item("build_time_s", s.build_time().as_secs_f64())?;
+        Ok(d)
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+}
