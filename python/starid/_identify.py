@@ -30,7 +30,7 @@ class Identification:
     ok : bool
         Whether a verified solution was found. When False every id is -1.
     status : str
-        ``"identified"``, ``"no_match"`` or ``"hypothesis_limit"``.
+        ``"identified"``, ``"no_match"``, ``"search_limit"`` (a search budget ran out) or ``"timeout"``.
     ra_deg, dec_deg, roll_deg : float
         Boresight and roll (NaN unless ``ok``). At roll 0 image-up (−y) points to celestial
         north and east is left; increasing roll turns the camera's +x axis toward +y.

@@ -12,7 +12,8 @@
 //!    the frame is mirrored: both handednesses are searched without being told.
 //! 4. Each catalogue triangle is a *hypothesis*: an attitude is solved from its three stars and
 //!    must be confirmed by a fourth observed star landing on a catalogue star (the Pyramid's
-//!    fourth star, found through the catalogue's zone index).
+//!    fourth star, found through the catalogue's zone index). In crowded frames, where a chance
+//!    fourth star is likely, more confirming stars are required (chance below [`CONFIRM_CHANCE`]).
 //! 5. A confirmed hypothesis is verified: every centroid is matched to its nearest catalogue star,
 //!    the attitude is re-solved from all matches (Wahba/SVD), the centroid noise is estimated
 //!    from the residuals and the match radius widened to 4σ of it (never narrowed below 5σ of
@@ -61,6 +62,10 @@ pub const STRONG_FALSE_MATCH_PROB: f64 = 1e-9;
 /// Triangles tried after a weak solution in search of a stronger one.
 pub const TRIANGLES_AFTER_WEAK: usize = 40;
 
+/// Chance, under a false hypothesis, of meeting the confirmation count; more confirmations
+/// are required until it is below this.
+pub const CONFIRM_CHANCE: f64 = 1e-2;
+
 /// Largest number of centroids accepted in one frame.
 pub const MAX_CENTROIDS: usize = 100_000;
 
@@ -80,8 +85,14 @@ pub struct IdentifyConfig {
     pub max_search_stars: usize,
     /// Stop after testing this many catalogue-triangle hypotheses.
     pub max_hypotheses: usize,
+    /// Stop after visiting this many catalogue pairs from the k-vector (the search's work,
+    /// including triangles that yield no hypothesis); bounds the time of hopeless frames.
+    pub max_pairs_visited: usize,
     /// Search mirrored (odd number of reflections) frames too.
     pub allow_mirrored: bool,
+    /// Give up after this much time (status [`Status::Timeout`]); `None`: no time limit, and the
+    /// result depends only on the input.
+    pub timeout: Option<Duration>,
 }
 
 impl Default for IdentifyConfig {
@@ -91,8 +102,10 @@ impl Default for IdentifyConfig {
             max_false_match_prob: 1e-3,
             min_matches: 4,
             max_search_stars: 24,
-            max_hypotheses: 200_000,
+            max_hypotheses: 50_000,
+            max_pairs_visited: 20_000_000,
             allow_mirrored: true,
+            timeout: None,
         }
     }
 }
@@ -140,17 +153,20 @@ pub enum Status {
     Identified,
     /// The search ended without a verified solution.
     NoMatch,
-    /// `max_hypotheses` were tested without a verified solution.
-    HypothesisLimit,
+    /// The search budget (`max_hypotheses` or `max_pairs_visited`) ran out without a verified solution.
+    SearchLimit,
+    /// The time limit passed without a verified solution.
+    Timeout,
 }
 
 impl Status {
-    /// Lower-case name: `identified`, `no_match`, `hypothesis_limit`.
+    /// Lower-case name: `identified`, `no_match`, `search_limit`, `timeout`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Identified => "identified",
             Self::NoMatch => "no_match",
-            Self::HypothesisLimit => "hypothesis_limit",
+            Self::SearchLimit => "search_limit",
+            Self::Timeout => "timeout",
         }
     }
 }
@@ -281,6 +297,8 @@ impl Solver {
             obs: [&obs, &obs_mirrored],
             order: &order,
             hypotheses: 0,
+            pairs_visited: 0,
+            deadline: config.timeout.map(|t| start + t),
             scratch: SCRATCH.with(|c| c.take()),
         };
         let mut status = Status::NoMatch;
@@ -297,8 +315,8 @@ impl Solver {
                     return Ok(v.into_identification(hypotheses, start.elapsed()));
                 }
                 Ok(None) => {}
-                Err(SearchLimit) => {
-                    status = Status::HypothesisLimit;
+                Err(SearchLimit(why)) => {
+                    status = why;
                     break;
                 }
             }
@@ -426,8 +444,8 @@ thread_local! {
     static SCRATCH: std::cell::Cell<Scratch> = std::cell::Cell::new(Scratch::default());
 }
 
-/// The hypothesis budget ran out.
-struct SearchLimit;
+/// The search must stop: the hypothesis budget or the time ran out.
+struct SearchLimit(Status);
 
 /// Reusable buffers: no allocation per hypothesis.
 #[derive(Default)]
@@ -449,6 +467,8 @@ struct Search<'a> {
     obs: [&'a [Vector3<f64>]; 2],
     order: &'a [usize],
     hypotheses: usize,
+    pairs_visited: usize,
+    deadline: Option<Instant>,
     scratch: Scratch,
 }
 
@@ -498,7 +518,16 @@ impl Search<'_> {
         let f = self.camera.focal_length_px;
         let sigma_rad = sigma_px / f;
         let eps = 3.0 * SQRT_2 * sigma_rad + 1e-7;
-        let r_confirm = 10.0 * sigma_rad + 2e-7;
+        let r_confirm = 8.0 * sigma_rad + 2e-7;
+        // Fourth stars needed to confirm a triangle: enough that chance alone (a centroid landing
+        // within r_confirm of some star, at twice the mean sky density) is unlikely to supply them.
+        let cat_len = self.solver.catalog.len() as f64;
+        let p_chance = (2.0 * cat_len / (4.0 * PI) * PI * r_confirm * r_confirm).min(1.0);
+        let others = self.order.len() - 3;
+        let confirmations = (1..=others)
+            .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
+            .unwrap_or(others)
+            .max(1);
         let max_angle = self.solver.pairs.max_angle_rad() - eps;
         let s = self.order.len().min(self.config.max_search_stars);
         let obs = self.obs[0];
@@ -533,13 +562,25 @@ impl Search<'_> {
                     if tried >= cap.min(stop_after) {
                         return Ok(self.accept(best));
                     }
+                    let why = if self.pairs_visited >= self.config.max_pairs_visited {
+                        Some(Status::SearchLimit)
+                    } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+                        Some(Status::Timeout)
+                    } else {
+                        None
+                    };
+                    if let Some(why) = why {
+                        return self
+                            .accept(best)
+                            .map_or(Err(SearchLimit(why)), |v| Ok(Some(v)));
+                    }
                     tried += 1;
                     let found = match self.try_triangle(
                         [i, j, k],
                         [t_ij, t_ik, t_jk],
                         tp_obs,
                         eps,
-                        r_confirm,
+                        (r_confirm, confirmations),
                         sigma_rad,
                     ) {
                         Ok(found) => found,
@@ -574,7 +615,7 @@ impl Search<'_> {
         [t_ij, t_ik, t_jk]: [f64; 3],
         tp_obs: f64,
         eps: f64,
-        r_confirm: f64,
+        (r_confirm, confirmations): (f64, usize),
         sigma_rad: f64,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut triangles = std::mem::take(&mut self.scratch.triangles);
@@ -588,7 +629,11 @@ impl Search<'_> {
                 continue;
             }
             if self.hypotheses >= self.config.max_hypotheses {
-                result = Err(SearchLimit);
+                result = Err(SearchLimit(Status::SearchLimit));
+                break;
+            }
+            if self.hypotheses % 64 == 0 && self.deadline.is_some_and(|d| Instant::now() >= d) {
+                result = Err(SearchLimit(Status::Timeout));
                 break;
             }
             self.hypotheses += 1;
@@ -596,7 +641,14 @@ impl Search<'_> {
             let Some(r) = wahba_svd(&[obs[i], obs[j], obs[k]], &[*va, *vb, *vc]) else {
                 continue;
             };
-            if !self.confirmed_by_fourth(&r, obs, [i, j, k], [ca, cb, cc], r_confirm, sigma_rad) {
+            if !self.confirmed(
+                &r,
+                obs,
+                [i, j, k],
+                [ca, cb, cc],
+                (r_confirm, confirmations),
+                sigma_rad,
+            ) {
                 continue;
             }
             if let Some(v) = self.verify(r, mirrored, r_confirm, sigma_rad) {
@@ -624,6 +676,7 @@ impl Search<'_> {
             idx.range(t_ik - eps, t_ik + eps),
             idx.range(t_jk - eps, t_jk + eps),
         );
+        self.pairs_visited += r_ij.len() + r_ik.len() + r_jk.len();
         if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
             return;
         }
@@ -642,25 +695,38 @@ impl Search<'_> {
         }
     }
 
-    /// Whether a fourth centroid lands on a catalogue star under attitude `r`.
-    fn confirmed_by_fourth(
+    /// Whether at least `needed` other centroids land on catalogue stars under attitude `r`
+    /// (the Pyramid's fourth star; more of them in crowded frames). Stops as soon as the answer
+    /// is known either way.
+    fn confirmed(
         &self,
         r: &Rotation3<f64>,
         obs: &[Vector3<f64>],
         used: [usize; 3],
         used_cat: [u32; 3],
-        radius: f64,
+        (radius, needed): (f64, usize),
         sigma_rad: f64,
     ) -> bool {
         let cat = self.solver.catalog.vectors();
         let zones = self.solver.catalog.zones();
-        self.order.iter().filter(|o| !used.contains(o)).any(|&o| {
-            let w = r.inverse_transform_vector(&obs[o]);
-            match unambiguous_nearest(zones, cat, &w, radius, sigma_rad) {
-                Some((star, _)) => !used_cat.contains(&star),
-                None => false,
+        let mut remaining = self.order.len() - 3;
+        let mut found = 0;
+        for &o in self.order.iter().filter(|o| !used.contains(o)) {
+            if found + remaining < needed {
+                return false;
             }
-        })
+            remaining -= 1;
+            let w = r.inverse_transform_vector(&obs[o]);
+            if let Some((star, _)) = unambiguous_nearest(zones, cat, &w, radius, sigma_rad) {
+                if !used_cat.contains(&star) {
+                    found += 1;
+                    if found >= needed {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 
     /// Match all centroids, re-solve the attitude, adapt the radius to the residuals and bound

@@ -1,0 +1,243 @@
+use std::sync::Arc;
+
+use proptest::prelude::*;
+use starid_core::geometry::attitude_from_radec_roll;
+use starid_core::simulate::{random_catalog, simulate, SimConfig};
+use starid_core::{Camera, ErrorKind, IdentifyConfig, SimFrame, Solver};
+
+use super::strategies::{bundled, config};
+
+fn camera_12() -> Camera {
+    Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap()
+}
+
+fn solver_12() -> &'static Solver {
+    static S: std::sync::OnceLock<Solver> = std::sync::OnceLock::new();
+    S.get_or_init(|| Solver::for_camera(bundled(), &camera_12()).unwrap())
+}
+
+/// Counts over frames with >= 4 real stars.
+#[derive(Debug, Default)]
+struct Survey {
+    eligible: usize,
+    identified: usize,
+    /// Solutions whose boresight is off by more than 0.1° or of the wrong handedness.
+    wrong_solutions: usize,
+    ids: usize,
+    wrong_ids: usize,
+}
+
+fn survey(
+    solver: &Solver,
+    camera: &Camera,
+    sim: &SimConfig,
+    seeds: std::ops::Range<u64>,
+) -> Survey {
+    let mut s = Survey::default();
+    for seed in seeds {
+        let f = simulate(solver.catalog(), camera, sim, seed).unwrap();
+        if f.real_stars() < 4 || f.centroids.len() < 4 {
+            continue;
+        }
+        s.eligible += 1;
+        let r = solver
+            .identify(&f.centroids, None, camera, &IdentifyConfig::default())
+            .unwrap();
+        if r.is_identified() {
+            s.identified += 1;
+            s.ids += r.matched;
+            s.wrong_ids += wrong(&r.catalog_index, &f);
+            let z = nalgebra::Vector3::z();
+            let off = r
+                .r_icrs_to_cam
+                .unwrap()
+                .inverse_transform_vector(&z)
+                .angle(&f.r_icrs_to_cam.inverse_transform_vector(&z));
+            s.wrong_solutions += usize::from(off > 0.1f64.to_radians() || r.mirrored != f.mirrored);
+        } else {
+            assert!(
+                r.catalog_index.iter().all(Option::is_none),
+                "an unidentified frame reports no ids"
+            );
+        }
+    }
+    s
+}
+
+fn wrong(got: &[Option<u32>], f: &SimFrame) -> usize {
+    got.iter()
+        .zip(&f.catalog_index)
+        .filter(|(g, t)| g.is_some() && g != t)
+        .count()
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// A noiseless or lightly noisy frame at a random attitude, mirrored or not, is identified
+    /// with every id right and the right handedness.
+    #[test]
+    fn identifies_random_frames(seed in any::<u64>(), mirrored in any::<bool>(), noise_px in 0.0f64..0.3) {
+        let camera = camera_12();
+        let sim = SimConfig { noise_px, mirrored, ..Default::default() };
+        let f = simulate(&bundled(), &camera, &sim, seed).unwrap();
+        prop_assume!(f.real_stars() >= 5);
+        let r = solver_12().identify(&f.centroids, None, &camera, &IdentifyConfig::default()).unwrap();
+        prop_assert!(r.is_identified());
+        prop_assert_eq!(r.mirrored, mirrored);
+        prop_assert_eq!(wrong(&r.catalog_index, &f), 0);
+        prop_assert!(r.r_icrs_to_cam.unwrap().angle_to(&f.r_icrs_to_cam) < 2e-3);
+        prop_assert!(r.false_match_probability <= 1e-3);
+    }
+
+    /// Random points are not stars: no solution is reported for them.
+    #[test]
+    fn random_points_are_not_identified(seed in any::<u64>(), n in 4usize..16) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let pts: Vec<[f64; 2]> = (0..n).map(|_| [rng.random_range(0.0..512.0), rng.random_range(0.0..512.0)]).collect();
+        let r = solver_12().identify(&pts, None, &camera_12(), &IdentifyConfig::default()).unwrap();
+        prop_assert!(!r.is_identified());
+        prop_assert!(r.catalog_index.iter().all(Option::is_none));
+    }
+}
+
+#[test]
+fn clean_frames_are_all_identified() {
+    let camera = camera_12();
+    let sim = SimConfig {
+        noise_px: 0.2,
+        ..Default::default()
+    };
+    let s = survey(solver_12(), &camera, &sim, 0..400);
+    assert_eq!(
+        s.identified, s.eligible,
+        "every frame with 4+ stars identified: {s:?}"
+    );
+    assert_eq!((s.wrong_solutions, s.wrong_ids), (0, 0), "{s:?}");
+}
+
+#[test]
+fn hostile_frames_are_mostly_identified_and_never_wrongly_solved() {
+    let camera = camera_12();
+    let sim = SimConfig {
+        noise_px: 1.0,
+        false_stars: 2,
+        drop_fraction: 0.1,
+        ..Default::default()
+    };
+    let s = survey(solver_12(), &camera, &sim, 1000..1300);
+    assert!(s.identified as f64 >= 0.97 * s.eligible as f64, "{s:?}");
+    assert_eq!(s.wrong_solutions, 0, "{s:?}");
+    // A false star on the spot of a dropped star is indistinguishable from it: rare, not never.
+    assert!(s.wrong_ids * 2000 <= s.ids, "{s:?}");
+}
+
+#[test]
+fn batch_matches_single_and_does_not_depend_on_threads() {
+    let camera = camera_12();
+    let sim = SimConfig {
+        noise_px: 0.5,
+        false_stars: 3,
+        ..Default::default()
+    };
+    let frames: Vec<_> = (0..40)
+        .map(|s| simulate(&bundled(), &camera, &sim, s).unwrap())
+        .filter(|f| f.centroids.len() >= 4)
+        .collect();
+    let refs: Vec<_> = frames
+        .iter()
+        .map(|f| (f.centroids.as_slice(), Some(f.magnitudes.as_slice())))
+        .collect();
+    let cfg = IdentifyConfig::default();
+    let one = solver_12()
+        .identify_batch(&refs, &camera, &cfg, Some(1))
+        .unwrap();
+    let two = solver_12()
+        .identify_batch(&refs, &camera, &cfg, Some(2))
+        .unwrap();
+    for ((a, b), f) in one.iter().zip(&two).zip(&frames) {
+        let single = solver_12()
+            .identify(&f.centroids, Some(&f.magnitudes), &camera, &cfg)
+            .unwrap();
+        assert_eq!(a.catalog_index, b.catalog_index);
+        assert_eq!(a.catalog_index, single.catalog_index);
+        assert_eq!(a.r_icrs_to_cam, b.r_icrs_to_cam);
+        assert_eq!(a.false_match_probability, b.false_match_probability);
+    }
+}
+
+#[test]
+fn wide_fields_and_other_catalogues() {
+    let cat = Arc::new(random_catalog(6000, 1.0, 6.0, 5).unwrap());
+    let camera = Camera::from_fov(20f64.to_radians(), 1024.0, 1024.0).unwrap();
+    let solver = Solver::for_camera(cat, &camera).unwrap();
+    let sim = SimConfig {
+        noise_px: 0.2,
+        mirrored: true,
+        ..Default::default()
+    };
+    let s = survey(&solver, &camera, &sim, 0..100);
+    assert_eq!(
+        (s.identified, s.wrong_solutions, s.wrong_ids),
+        (s.eligible, 0, 0),
+        "{s:?}"
+    );
+}
+
+#[test]
+fn given_attitude_is_reproduced() {
+    let camera = camera_12();
+    let truth = attitude_from_radec_roll(83f64.to_radians(), (-1f64).to_radians(), 0.35);
+    let f = simulate(
+        &bundled(),
+        &camera,
+        &SimConfig {
+            r_icrs_to_cam: Some(truth),
+            ..Default::default()
+        },
+        3,
+    )
+    .unwrap();
+    let r = solver_12()
+        .identify(&f.centroids, None, &camera, &IdentifyConfig::default())
+        .unwrap();
+    let err = (r.r_icrs_to_cam.unwrap().matrix() - truth.matrix()).norm();
+    assert!(err < 1e-9, "attitude error {err}");
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let camera = camera_12();
+    let s = solver_12();
+    let cfg = IdentifyConfig::default();
+    let good = [[10.0, 10.0], [100.0, 20.0], [300.0, 400.0], [50.0, 500.0]];
+    let cases: Vec<(Vec<[f64; 2]>, &str)> = vec![
+        (good[..3].to_vec(), "at least 4"),
+        (
+            vec![[f64::NAN, 1.0], good[1], good[2], good[3]],
+            "non-finite",
+        ),
+        (
+            vec![[f64::INFINITY, 1.0], good[1], good[2], good[3]],
+            "non-finite",
+        ),
+        (vec![good[0], good[1], good[2], good[1]], "duplicates"),
+        (vec![good[0], good[1], good[2], [900.0, 5.0]], "outside"),
+        (vec![[1.0, 1.0]; 100_001], "too many"),
+    ];
+    for (pts, msg) in cases {
+        let e = s.identify(&pts, None, &camera, &cfg).unwrap_err();
+        assert_eq!(e.kind(), &ErrorKind::InvalidInput);
+        assert!(e.to_string().contains(msg), "{e} should mention {msg}");
+    }
+    assert!(s.identify(&good, Some(&[1.0, 2.0]), &camera, &cfg).is_err());
+    assert!(s
+        .identify(&good, Some(&[1.0, 2.0, f64::NAN, 3.0]), &camera, &cfg)
+        .is_err());
+    let bad_cfg = IdentifyConfig {
+        min_matches: 2,
+        ..Default::default()
+    };
+    assert!(s.identify(&good, None, &camera, &bad_cfg).is_err());
+}

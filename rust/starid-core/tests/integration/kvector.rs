@@ -1,0 +1,54 @@
+use std::collections::BTreeSet;
+
+use proptest::prelude::*;
+use starid_core::geometry::angle_between;
+use starid_core::simulate::random_catalog;
+use starid_core::PairIndex;
+
+use super::strategies::config;
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// A range query returns exactly the pairs a brute-force scan finds.
+    #[test]
+    fn range_query_equals_brute_force(
+        n in 2usize..400,
+        seed in any::<u64>(),
+        max_angle in 0.02f64..1.0,
+        queries in proptest::collection::vec((0.0f64..1.0, 0.0f64..0.05), 1..20),
+    ) {
+        let cat = random_catalog(n, 1.0, 6.0, seed).unwrap();
+        let idx = PairIndex::build(&cat, max_angle).unwrap();
+        let v = cat.vectors();
+        let mut all = Vec::new();
+        for i in 0..n {
+            for j in i + 1..n {
+                let a = angle_between(&v[i], &v[j]);
+                if a <= max_angle {
+                    all.push((a as f32, [i as u32, j as u32]));
+                }
+            }
+        }
+        prop_assert_eq!(idx.len(), all.len());
+        for (frac, half_width) in queries {
+            let centre = frac * max_angle;
+            let (lo, hi) = (centre - half_width, centre + half_width);
+            let got: BTreeSet<[u32; 2]> = idx.pairs(idx.range(lo, hi)).iter().copied().collect();
+            let want: BTreeSet<[u32; 2]> =
+                all.iter().filter(|(a, _)| *a >= lo as f32 && *a <= hi as f32).map(|(_, p)| *p).collect();
+            prop_assert_eq!(got, want);
+        }
+    }
+}
+
+#[test]
+fn rejects_absurd_angles_and_oversized_indexes() {
+    let cat = random_catalog(100, 1.0, 6.0, 1).unwrap();
+    assert!(PairIndex::build(&cat, 0.0).is_err());
+    assert!(PairIndex::build(&cat, f64::NAN).is_err());
+    assert!(PairIndex::build(&cat, 4.0).is_err());
+    let big = random_catalog(40_000, 1.0, 6.0, 1).unwrap();
+    let e = PairIndex::build(&big, 3.0).unwrap_err();
+    assert!(e.to_string().contains("pairs"), "{e}");
+}

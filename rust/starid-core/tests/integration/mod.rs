@@ -1,0 +1,4 @@
+mod geometry;
+mod identify;
+mod kvector;
+mod strategies;
