@@ -1,1 +1,79 @@
-fn main() {}
+//! Identification per frame for several scenarios, and batch throughput.
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use starid_bench::{bundled_catalog, frames};
+use starid_core::simulate::SimConfig;
+use starid_core::{Camera, IdentifyConfig, Solver};
+
+fn identify(c: &mut Criterion) {
+    let cat = bundled_catalog();
+    let cfg = IdentifyConfig::default();
+    let mut g = c.benchmark_group("identify");
+    g.sample_size(10);
+    let scenarios = [
+        (
+            "12deg_512px_0.2px",
+            12.0,
+            512.0,
+            SimConfig {
+                noise_px: 0.2,
+                ..Default::default()
+            },
+        ),
+        (
+            "20deg_1024px_0.2px",
+            20.0,
+            1024.0,
+            SimConfig {
+                noise_px: 0.2,
+                ..Default::default()
+            },
+        ),
+        (
+            "12deg_512px_1px_2false_10pctdrop",
+            12.0,
+            512.0,
+            SimConfig {
+                noise_px: 1.0,
+                false_stars: 2,
+                drop_fraction: 0.1,
+                ..Default::default()
+            },
+        ),
+    ];
+    for (name, fov, size, sim) in scenarios {
+        let camera = Camera::from_fov(f64::to_radians(fov), size, size).unwrap();
+        let solver = Solver::for_camera(cat.clone(), &camera).unwrap();
+        let fs = frames(&cat, &camera, &sim, 200);
+        g.throughput(Throughput::Elements(fs.len() as u64));
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                fs.iter()
+                    .filter(|f| {
+                        solver
+                            .identify(black_box(&f.centroids), None, &camera, &cfg)
+                            .unwrap()
+                            .is_identified()
+                    })
+                    .count()
+            })
+        });
+        if name.starts_with("12deg_512px_0.2") {
+            let refs: Vec<_> = fs.iter().map(|f| (f.centroids.as_slice(), None)).collect();
+            g.bench_function(format!("{name}_batch"), |b| {
+                b.iter(|| {
+                    solver
+                        .identify_batch(black_box(&refs), &camera, &cfg, None)
+                        .unwrap()
+                        .len()
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, identify);
+criterion_main!(benches);

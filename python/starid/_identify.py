@@ -198,6 +198,7 @@ def _config(
     max_search_stars: int,
     max_hypotheses: int,
     allow_mirrored: bool,
+    timeout_s: Optional[float] = None,
 ) -> Any:
     return _starid.IdentifyConfig(
         centroid_sigma_px=None if centroid_sigma_px is None else float(centroid_sigma_px),
@@ -206,6 +207,7 @@ def _config(
         max_search_stars=int(max_search_stars),
         max_hypotheses=int(max_hypotheses),
         allow_mirrored=bool(allow_mirrored),
+        timeout_s=None if timeout_s is None else float(timeout_s),
     )
 
 
@@ -220,8 +222,9 @@ def identify(
     max_false_match_prob: float = 1e-3,
     min_matches: int = 4,
     max_search_stars: int = 24,
-    max_hypotheses: int = 200_000,
+    max_hypotheses: int = 50_000,
     allow_mirrored: bool = True,
+    timeout_s: Optional[float] = None,
 ) -> Identification:
     """Identify the stars of one frame (lost in space: no prior attitude).
 
@@ -252,6 +255,9 @@ def identify(
         Give up after testing this many catalogue triangles.
     allow_mirrored : bool
         Also search mirrored frames; the result says which handedness was found.
+    timeout_s : float, optional
+        Give up after this long (status ``"timeout"``). By default the result depends only on
+        the input; hopeless frames end within a fixed search budget.
 
     Returns
     -------
@@ -277,7 +283,9 @@ def identify(
     fov = _fov(fov_deg)
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
-    cfg = _config(centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored)
+    cfg = _config(
+        centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored, timeout_s
+    )
     return Identification._from_native(_starid.identify(cat._native, a, m, w, h, fov, cfg))
 
 
@@ -293,7 +301,7 @@ def identify_many(
     max_false_match_prob: float = 1e-3,
     min_matches: int = 4,
     max_search_stars: int = 24,
-    max_hypotheses: int = 200_000,
+    max_hypotheses: int = 50_000,
     allow_mirrored: bool = True,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).

@@ -39,7 +39,7 @@ struct PyIdentifyConfig {
 impl PyIdentifyConfig {
     #[new]
     #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
-                        max_search_stars=None, max_hypotheses=None, allow_mirrored=None))]
+                        max_search_stars=None, max_hypotheses=None, allow_mirrored=None, timeout_s=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -47,7 +47,17 @@ impl PyIdentifyConfig {
         max_search_stars: Option<usize>,
         max_hypotheses: Option<usize>,
         allow_mirrored: Option<bool>,
+        timeout_s: Option<f64>,
     ) -> PyResult<Self> {
+        let timeout = match timeout_s {
+            None => None,
+            Some(t) if t.is_finite() && t > 0.0 => Some(std::time::Duration::from_secs_f64(t)),
+            Some(t) => {
+                return Err(PyValueError::new_err(format!(
+                    "timeout_s must be positive and finite, got {t}"
+                )))
+            }
+        };
         let d = IdentifyConfig::default();
         let inner = IdentifyConfig {
             centroid_sigma_px,
@@ -56,6 +66,8 @@ impl PyIdentifyConfig {
             max_search_stars: max_search_stars.unwrap_or(d.max_search_stars),
             max_hypotheses: max_hypotheses.unwrap_or(d.max_hypotheses),
             allow_mirrored: allow_mirrored.unwrap_or(d.allow_mirrored),
+            timeout,
+            ..d
         };
         inner.validate().map_err(PyStaridError)?;
         Ok(Self { inner })

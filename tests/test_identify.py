@@ -1,0 +1,106 @@
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import starid
+
+GEOMETRIES = [(12.0, (512, 512)), (20.0, (1024, 1024))]
+
+
+def _check(frame: starid.Frame, res: starid.Identification) -> None:
+    assert res.ok, res
+    known = res.ids >= 0
+    assert np.array_equal(res.ids[known], frame.true_ids[known]), "no wrong ids"
+    assert res.mirrored == frame.mirrored
+    assert res.n_matched == int(known.sum())
+    assert abs(res.dec_deg - frame.dec_deg) < 0.01
+
+
+@pytest.mark.parametrize(("fov", "size"), GEOMETRIES)
+def test_contest_frames(contest: starid.Catalog, fov: float, size: tuple[int, int]) -> None:
+    done = 0
+    for seed in range(60):
+        f = starid.simulate(contest, fov, size, seed=seed, noise_px=0.2, mirrored=seed % 2 == 1)
+        if f.n_real < 4:
+            continue
+        res = starid.identify(f.xy, catalog=contest, fov_deg=fov, image_size=size)
+        _check(f, res)
+        assert (res.ids >= 0).sum() >= 0.95 * f.n_real
+        done += 1
+    assert done >= 55
+
+
+def test_exact_call_from_issue(contest: starid.Catalog) -> None:
+    f = starid.simulate(contest, 12.0, (512, 512), seed=5, noise_px=1.0, false_stars=2, drop_fraction=0.1)
+    res = starid.identify(f.xy, catalog=contest, fov_deg=12.0, image_size=(512, 512))
+    _check(f, res)
+    assert res.ids.dtype == np.int64 and res.ids.shape == (len(f.xy),)
+    assert (res.ids[f.true_ids < 0] == -1).all()
+
+
+def test_result_fields(bundled: starid.Catalog) -> None:
+    f = starid.simulate(fov_deg=12.0, image_size=(512, 512), attitude_deg=(200.0, 40.0, 33.0), seed=1, noise_px=0.1)
+    res = starid.identify(f.xy, fov_deg=12.0, image_size=(512, 512), magnitudes=f.magnitudes)
+    _check(f, res)
+    assert res.ra_deg == pytest.approx(200.0, abs=2e-3)
+    assert res.roll_deg == pytest.approx(33.0, abs=0.05)
+    r = res.rotation_matrix
+    assert r is not None and np.allclose(r @ r.T, np.eye(3), atol=1e-12)
+    q = res.quaternion
+    assert q is not None and q[0] >= 0 and np.isclose(np.linalg.norm(q), 1.0)
+    w, x, y, z = q
+    rq = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+    assert np.allclose(rq, r, atol=1e-9)
+    # The boresight is the third row of R, seen in ICRS.
+    ra, dec = np.radians([res.ra_deg, res.dec_deg])
+    assert np.allclose(r[2], [np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], atol=1e-12)
+    assert np.isnan(res.residuals_arcsec[res.ids < 0]).all()
+    assert (res.residuals_arcsec[res.ids >= 0] < 60).all()
+    assert 0 < res.false_match_probability < 1e-6
+    assert res.time_s > 0
+    json.dumps(res.to_dict())
+    assert "ok=True" in repr(res)
+
+
+def test_unidentifiable_frame_is_not_an_exception() -> None:
+    rng = np.random.default_rng(0)
+    res = starid.identify(rng.uniform(0, 512, (8, 2)), fov_deg=12.0, image_size=(512, 512))
+    assert not res.ok and (res.ids == -1).all() and res.quaternion is None and np.isnan(res.ra_deg)
+    assert "ok=False" in repr(res)
+    json.dumps(res.to_dict())
+
+
+def test_identify_many_matches_identify(contest: starid.Catalog) -> None:
+    frames = [starid.simulate(contest, 12.0, (512, 512), seed=s, noise_px=0.5, false_stars=2) for s in range(30)]
+    frames = [f for f in frames if len(f.xy) >= 4]
+    many = starid.identify_many([f.xy for f in frames], catalog=contest, fov_deg=12.0, image_size=(512, 512), threads=2)
+    one = starid.identify_many([f.xy for f in frames], catalog=contest, fov_deg=12.0, image_size=(512, 512), threads=1)
+    for f, a, b in zip(frames, many, one):
+        single = starid.identify(f.xy, catalog=contest, fov_deg=12.0, image_size=(512, 512))
+        assert np.array_equal(a.ids, single.ids) and np.array_equal(a.ids, b.ids)
+
+
+def test_threads_share_a_catalogue(contest: starid.Catalog) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    frames = [starid.simulate(contest, 12.0, (512, 512), seed=s, noise_px=0.2) for s in range(40)]
+    frames = [f for f in frames if len(f.xy) >= 4]
+
+    def run(f: starid.Frame) -> list[int]:
+        return list(starid.identify(f.xy, catalog=contest, fov_deg=12.0, image_size=(512, 512)).ids)
+
+    with ThreadPoolExecutor(4) as pool:
+        parallel = list(pool.map(run, frames, timeout=120))
+    assert parallel == [run(f) for f in frames]
+
+
+def test_index_info(contest: starid.Catalog) -> None:
+    info = contest.index_info(12.0, (512, 512))
+    assert info["pairs"] > 100_000 and info["memory_bytes"] < 5_000_000
