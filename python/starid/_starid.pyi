@@ -1,0 +1,117 @@
+"""Native module of starid (Rust, PyO3). Use the public API in ``starid`` instead."""
+
+from os import PathLike
+from typing import Any, Optional, Union, final
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "Catalog",
+    "CatalogError",
+    "IdentifyConfig",
+    "StaridError",
+    "__version__",
+    "identify",
+    "identify_many",
+    "simulate",
+]
+
+__version__: str
+
+class StaridError(Exception):
+    """Base class of starid's own exceptions."""
+
+class CatalogError(StaridError):
+    """A catalogue file or table is malformed."""
+
+@final
+class Catalog:
+    """A star catalogue: ids, ICRS directions and magnitudes."""
+
+    def __new__(
+        cls,
+        ids: npt.NDArray[np.int64],
+        ra_deg: npt.NDArray[np.float64],
+        dec_deg: npt.NDArray[np.float64],
+        mag: npt.NDArray[np.float64],
+    ) -> Catalog: ...
+    @staticmethod
+    def from_table_path(path: Union[str, PathLike[str]]) -> Catalog: ...
+    @staticmethod
+    def from_hip2_path(path: Union[str, PathLike[str]], mag_limit: float, epoch: float) -> Catalog: ...
+    def filter_mag(self, mag_limit: float) -> Catalog: ...
+    @property
+    def ids(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def ra_deg(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def dec_deg(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def mag(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def unit_vectors(self) -> npt.NDArray[np.float64]: ...
+    def index_info(self, max_angle_deg: float) -> dict[str, Any]: ...
+    def __len__(self) -> int: ...
+
+@final
+class IdentifyConfig:
+    """Settings of identification (see ``starid.identify``)."""
+
+    def __new__(
+        cls,
+        *,
+        centroid_sigma_px: Optional[float] = None,
+        max_false_match_prob: Optional[float] = None,
+        min_matches: Optional[int] = None,
+        max_search_stars: Optional[int] = None,
+        max_hypotheses: Optional[int] = None,
+        allow_mirrored: Optional[bool] = None,
+        timeout_s: Optional[float] = None,
+    ) -> IdentifyConfig: ...
+    @property
+    def centroid_sigma_px(self) -> Optional[float]: ...
+    @property
+    def max_false_match_prob(self) -> float: ...
+    @property
+    def min_matches(self) -> int: ...
+    @property
+    def max_search_stars(self) -> int: ...
+    @property
+    def max_hypotheses(self) -> int: ...
+    @property
+    def allow_mirrored(self) -> bool: ...
+
+def identify(
+    catalog: Catalog,
+    xy: npt.NDArray[np.float64],
+    magnitudes: Optional[npt.NDArray[np.float64]],
+    width_px: float,
+    height_px: float,
+    fov_deg: float,
+    config: IdentifyConfig,
+) -> dict[str, Any]: ...
+def identify_many(
+    catalog: Catalog,
+    xys: list[npt.NDArray[np.float64]],
+    magnitudes: Optional[list[Optional[npt.NDArray[np.float64]]]],
+    width_px: float,
+    height_px: float,
+    fov_deg: float,
+    config: IdentifyConfig,
+    threads: Optional[int] = None,
+) -> list[dict[str, Any]]: ...
+def simulate(
+    catalog: Catalog,
+    fov_deg: float,
+    width_px: float,
+    height_px: float,
+    seed: int,
+    attitude_deg: Optional[tuple[float, float, float]] = None,
+    mag_limit: Optional[float] = None,
+    noise_px: float = 0.0,
+    mag_noise: float = 0.0,
+    false_stars: int = 0,
+    drop_fraction: float = 0.0,
+    mirrored: bool = False,
+) -> dict[str, Any]: ...
