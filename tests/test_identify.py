@@ -81,7 +81,9 @@ def test_identify_many_matches_identify(contest: starid.Catalog) -> None:
     frames = [starid.simulate(contest, 12.0, (512, 512), seed=s, noise_px=0.5, false_stars=2) for s in range(30)]
     frames = [f for f in frames if len(f.xy) >= 4]
     many = starid.identify_many([f.xy for f in frames], catalog=contest, fov_deg=12.0, image_size=(512, 512), threads=2)
-    one = starid.identify_many([f.xy for f in frames], catalog=contest, fov_deg=12.0, image_size=(512, 512), threads=1)
+    one = starid.identify_many(
+        [f.xy for f in frames], catalog=contest, fov_deg=12.0, image_size=(512, 512), threads=1, timeout_s=10.0
+    )
     for f, a, b in zip(frames, many, one):
         single = starid.identify(f.xy, catalog=contest, fov_deg=12.0, image_size=(512, 512))
         assert np.array_equal(a.ids, single.ids) and np.array_equal(a.ids, b.ids)

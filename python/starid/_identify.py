@@ -303,12 +303,14 @@ def identify_many(
     max_search_stars: int = 24,
     max_hypotheses: int = 50_000,
     allow_mirrored: bool = True,
+    timeout_s: Optional[float] = None,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
 
     Arguments as :func:`identify`; ``frames`` is a sequence of (N_i, 2) centroid arrays and
     ``magnitudes`` an optional sequence of per-frame magnitude arrays (or None entries).
-    ``threads`` limits the worker threads (None: all cores). Results come in input order and
+    ``threads`` limits the worker threads (None: all cores); ``timeout_s`` applies to each
+    frame. Results come in input order and
     do not depend on the thread count.
 
     Examples
@@ -329,7 +331,9 @@ def identify_many(
         mags = [_magnitudes(m, a.shape[0]) for m, a in zip(magnitudes, xys)]
     if threads is not None and int(threads) < 1:
         raise ValueError(f"threads must be at least 1 (or None for all cores), got {threads}")
-    cfg = _config(centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored)
+    cfg = _config(
+        centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored, timeout_s
+    )
     out = _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
     return [Identification._from_native(d) for d in out]
 

@@ -861,7 +861,7 @@ fn unambiguous_nearest(
     sigma_rad: f64,
 ) -> Option<(u32, f64)> {
     let (best, second) = zones.nearest_two(cat, w, radius);
-    let (star, c1) = best?;
+    let (star, _) = best?;
     let d1 = crate::geometry::angle_between(w, &cat[star as usize]);
     if let Some((s2, _)) = second {
         let d2 = crate::geometry::angle_between(w, &cat[s2 as usize]);
@@ -869,7 +869,6 @@ fn unambiguous_nearest(
             return None;
         }
     }
-    let _ = c1;
     Some((star, d1))
 }
 
