@@ -61,6 +61,33 @@ def _parser() -> argparse.ArgumentParser:
     info.add_argument("catalog", type=Path, nargs="?", help="catalogue file; default: bundled Hipparcos")
     info.add_argument("--fov-deg", type=float, default=12.0)
     info.add_argument("--size", type=_size, default=(512.0, 512.0))
+
+    guide = sub.add_parser("guide", help="guide-star catalogues: select, compare with the paper, plot")
+    gsub = guide.add_subparsers(dest="guide_command", required=True)
+    cmp_ = gsub.add_parser("compare", help="rectangle grid vs QTM vs weighted QTM, beside the paper's table")
+    cmp_.add_argument("--catalog", type=Path, help="catalogue file; the paper used the 4908-star contest catalogue")
+    cmp_.add_argument("--fov-deg", type=float, default=10.0, help="field: full cone angle (circle) or side (square)")
+    cmp_.add_argument("--field", choices=("circle", "square"), default="circle")
+    cmp_.add_argument("--trials", type=int, default=100_000, help="Monte Carlo fields")
+    cmp_.add_argument("--level", type=int, default=5, help="QTM level (5: 2048 triangles)")
+    cmp_.add_argument("--cell-deg", type=float, default=5.0, help="rectangle cell size (5: 2592 cells)")
+    cmp_.add_argument("--seed", type=int, default=0)
+    cmp_.add_argument("--json", action="store_true")
+    sel = gsub.add_parser("select", help="write a guide catalogue as CSV and print its metrics")
+    sel.add_argument("output", type=Path)
+    sel.add_argument("--catalog", type=Path)
+    sel.add_argument("--method", choices=("magnitude", "doubles", "rectangle", "qtm", "qtm-weighted"), default="qtm-weighted")
+    sel.add_argument("--mag-limit", type=float, help="magnitude method: faintest kept magnitude")
+    sel.add_argument("--separation-deg", type=float, help="doubles method: smallest separation kept")
+    sel.add_argument("--merge", action="store_true", help="doubles method: merge instead of dropping")
+    sel.add_argument("--cell-deg", type=float, help="rectangle method: cell size (default 5)")
+    sel.add_argument("--level", type=int, help="QTM methods: mesh level (default 5)")
+    sel.add_argument("--fov-deg", type=float, default=10.0, help="field for the metrics")
+    plot = gsub.add_parser("plot", help="full-sky PNG of each method's guide stars (needs matplotlib)")
+    plot.add_argument("output", type=Path, nargs="?", default=Path("guide_stars.png"))
+    plot.add_argument("--catalog", type=Path)
+    plot.add_argument("--level", type=int, default=5)
+    plot.add_argument("--cell-deg", type=float, default=5.0)
     return p
 
 
@@ -177,6 +204,56 @@ def _catalog_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _guide(args: argparse.Namespace) -> int:
+    from . import guide
+
+    cat = resolve_catalog(args.catalog)
+    if args.guide_command == "compare":
+        rows = guide.compare(
+            cat, fov_deg=args.fov_deg, trials=args.trials, level=args.level,
+            cell_deg=args.cell_deg, field=args.field, seed=args.seed,
+        )
+        if args.json:
+            clean = [{k: v for k, v in r.items() if k != "stars_per_field"} for r in rows]
+            json.dump(clean, sys.stdout, indent=2)
+            print()
+            return 0
+        print(
+            f"{cat!r}; {args.field} field of {args.fov_deg:g} deg, {args.trials} random pointings; "
+            f"QTM level {args.level} ({guide.qtm_triangle_count(args.level)} triangles), "
+            f"{args.cell_deg:g} deg rectangles"
+        )
+        print(guide.format_comparison(rows, paper=True))
+        print("paper: contest catalogue (4908 stars), 10 deg field; its P(>=3) needs a wider field "
+              "than a 10 deg circle (see the README)")
+        return 0
+    if args.guide_command == "select":
+        params: dict[str, Any] = {}
+        for name in ("mag_limit", "separation_deg", "cell_deg", "level"):
+            value = getattr(args, name)
+            if value is not None:
+                params[name] = value
+        if args.method == "doubles":
+            params["merge"] = args.merge
+        sel_cat = guide.select(cat, args.method, **params)
+        sel_cat.to_csv(args.output)
+        m = guide.metrics(sel_cat, args.fov_deg)
+        print(
+            f"{len(sel_cat)} guide stars written to {args.output}; nearest neighbour "
+            f"min {m['nn_min_deg']:.4f} mean {m['nn_mean_deg']:.4f} std {m['nn_std_deg']:.4f} deg; "
+            f"P(>=3 in a {args.fov_deg:g} deg circle) {100 * m['p_at_least_3']:.2f}%"
+        )
+        return 0
+    selections = {
+        f"rectangle {args.cell_deg:g} deg": guide.select(cat, "rectangle", cell_deg=args.cell_deg),
+        f"QTM level {args.level}": guide.select(cat, "qtm", level=args.level),
+        f"QTM level {args.level} weighted": guide.select(cat, "qtm-weighted", level=args.level),
+    }
+    guide.plot(selections, args.output, title=repr(cat))
+    print(f"wrote {args.output}")
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``starid`` command."""
     args = _parser().parse_args(argv)
@@ -185,12 +262,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _identify(args)
         if args.command == "simulate":
             return _simulate(args)
+        if args.command == "guide":
+            return _guide(args)
         return _catalog_info(args)
     except BrokenPipeError:
         # The reader went away (e.g. `starid ... | head`): not an error of ours.
         sys.stdout = None  # type: ignore[assignment]
         return 0
-    except (ValueError, OSError) as e:
+    except (ValueError, OSError, ImportError) as e:
         print(f"starid: error: {e}", file=sys.stderr)
         return 2
 

@@ -156,6 +156,37 @@ impl PairIndex {
     pub fn memory_bytes(&self) -> usize {
         self.angles.len() * 4 + self.pairs.len() * 8 + self.k.len() * 4
     }
+
+    /// Heap memory in bytes of an index holding `n_pairs` pairs, without building it.
+    pub fn memory_bytes_for(n_pairs: usize) -> usize {
+        n_pairs * 12 + (n_pairs / PAIRS_PER_BIN).max(2) * 4
+    }
+
+    /// Number of pairs of `catalog` separated by at most `max_angle_rad`: the size of the index
+    /// [`PairIndex::build`] would make, counted without storing a pair.
+    pub fn count_pairs(catalog: &Catalog, max_angle_rad: f64) -> usize {
+        let vectors = catalog.vectors();
+        let per_star = |i: usize| -> usize {
+            let mut n = 0;
+            catalog
+                .zones()
+                .for_each_in_cone(vectors, &vectors[i], max_angle_rad, |j, _| {
+                    if (j as usize) > i {
+                        n += 1;
+                    }
+                });
+            n
+        };
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            (0..vectors.len()).into_par_iter().map(per_star).sum()
+        }
+        #[cfg(not(feature = "parallel"))]
+        {
+            (0..vectors.len()).map(per_star).sum()
+        }
+    }
 }
 
 /// Every pair within `max_angle_rad`, found through the catalogue's zone index.

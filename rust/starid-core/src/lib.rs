@@ -52,6 +52,7 @@ pub mod attitude;
 pub mod catalog;
 pub mod error;
 pub mod geometry;
+pub mod guide;
 pub mod identify;
 pub mod kvector;
 pub mod simulate;

@@ -6,6 +6,7 @@
 mod catalog;
 mod convert;
 mod errors;
+mod guide;
 mod outcome;
 
 use std::sync::Arc;
@@ -266,6 +267,10 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify_many, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(guide::guide_select, m)?)?;
+    m.add_function(wrap_pyfunction!(guide::guide_metrics, m)?)?;
+    m.add_function(wrap_pyfunction!(guide::guide_nearest_neighbours, m)?)?;
+    m.add_function(wrap_pyfunction!(guide::guide_field_counts, m)?)?;
     m.add("StaridError", m.py().get_type::<StaridError>())?;
     m.add("CatalogError", m.py().get_type::<CatalogError>())?;
     Ok(())

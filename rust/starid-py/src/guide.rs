@@ -1,0 +1,143 @@
+//! Guide-star selection and metrics (`starid.guide`).
+
+use numpy::IntoPyArray;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use starid_core::guide::{self, DoubleRule, Field, QtmRule};
+
+use crate::catalog::PyCatalog;
+use crate::run_core;
+
+fn positive_deg(name: &str, value: Option<f64>) -> PyResult<f64> {
+    match value {
+        Some(v) => Ok(v.to_radians()),
+        None => Err(PyValueError::new_err(format!("this method needs {name}"))),
+    }
+}
+
+/// Select guide stars: `method` is "magnitude" (mag_limit), "doubles" (separation_deg,
+/// merge), "rectangle" (cell_deg), "qtm" or "qtm-weighted" (level).
+#[pyfunction]
+#[pyo3(signature = (catalog, method, *, mag_limit=None, separation_deg=None, merge=false,
+                    cell_deg=None, level=None))]
+pub fn guide_select(
+    py: Python<'_>,
+    catalog: &PyCatalog,
+    method: &str,
+    mag_limit: Option<f64>,
+    separation_deg: Option<f64>,
+    merge: bool,
+    cell_deg: Option<f64>,
+    level: Option<u32>,
+) -> PyResult<PyCatalog> {
+    let cat = catalog.inner.clone();
+    let selected = match method {
+        "magnitude" => {
+            let limit = mag_limit
+                .ok_or_else(|| PyValueError::new_err("method 'magnitude' needs mag_limit"))?;
+            run_core(py, move || guide::select_magnitude(&cat, limit))?
+        }
+        "doubles" => {
+            let sep = positive_deg("separation_deg", separation_deg)?;
+            let rule = if merge {
+                DoubleRule::Merge
+            } else {
+                DoubleRule::KeepBrighter
+            };
+            run_core(py, move || guide::thin_doubles(&cat, sep, rule))?
+        }
+        "rectangle" => {
+            let cell = positive_deg("cell_deg", cell_deg)?;
+            run_core(py, move || guide::select_rectangle(&cat, cell))?
+        }
+        "qtm" | "qtm-weighted" => {
+            let level = level.ok_or_else(|| {
+                PyValueError::new_err(format!("method '{method}' needs level"))
+            })?;
+            let rule = if method == "qtm" {
+                QtmRule::Brightest
+            } else {
+                QtmRule::Weighted
+            };
+            run_core(py, move || guide::select_qtm(&cat, level, rule))?
+        }
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "unknown selection method {other:?}; use 'magnitude', 'doubles', 'rectangle', \
+                 'qtm' or 'qtm-weighted'"
+            )))
+        }
+    };
+    Ok(PyCatalog::wrap(selected))
+}
+
+fn parse_field(field: &str, fov_deg: f64) -> PyResult<Field> {
+    let fov_rad = fov_deg.to_radians();
+    match field {
+        "circle" => Ok(Field::Circle { fov_rad }),
+        "square" => Ok(Field::Square { fov_rad }),
+        other => Err(PyValueError::new_err(format!(
+            "field must be 'circle' or 'square', got {other:?}"
+        ))),
+    }
+}
+
+/// Monte Carlo histogram of stars per field: entry k counts fields with exactly k stars.
+#[pyfunction]
+pub fn guide_field_counts<'py>(
+    py: Python<'py>,
+    catalog: &PyCatalog,
+    fov_deg: f64,
+    trials: usize,
+    seed: u64,
+    field: &str,
+) -> PyResult<Bound<'py, numpy::PyArray1<u64>>> {
+    let field = parse_field(field, fov_deg)?;
+    let cat = catalog.inner.clone();
+    let hist = run_core(py, move || guide::field_star_counts(&cat, field, trials, seed))?;
+    Ok(hist.into_pyarray(py))
+}
+
+/// Metrics of a guide catalogue for circular or square fields of `fov_deg`.
+#[pyfunction]
+#[pyo3(signature = (catalog, fov_deg, trials, seed, field))]
+pub fn guide_metrics<'py>(
+    py: Python<'py>,
+    catalog: &PyCatalog,
+    fov_deg: f64,
+    trials: usize,
+    seed: u64,
+    field: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let field = parse_field(field, fov_deg)?;
+    let cat = catalog.inner.clone();
+    let m = run_core(py, move || guide::metrics(&cat, field, trials, seed))?;
+    let d = PyDict::new(py);
+    d.set_item("count", m.count)?;
+    d.set_item("nn_min_deg", m.nn_min_rad.to_degrees())?;
+    d.set_item("nn_mean_deg", m.nn_mean_rad.to_degrees())?;
+    d.set_item("nn_std_deg", m.nn_std_rad.to_degrees())?;
+    d.set_item("p_at_least_3", m.p_at_least(3))?;
+    d.set_item("mean_stars_per_field", m.mean_stars_per_field())?;
+    d.set_item("trials", m.trials())?;
+    d.set_item("stars_per_field", m.stars_per_field.clone().into_pyarray(py))?;
+    d.set_item("pairs", m.pairs)?;
+    d.set_item("index_bytes", m.index_bytes)?;
+    Ok(d)
+}
+
+/// Nearest-neighbour angle of every star, degrees.
+#[pyfunction]
+pub fn guide_nearest_neighbours<'py>(
+    py: Python<'py>,
+    catalog: &PyCatalog,
+) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    let cat = catalog.inner.clone();
+    let nn = run_core(py, move || guide::nearest_neighbour_angles(&cat))?;
+    Ok(nn
+        .into_iter()
+        .map(f64::to_degrees)
+        .collect::<Vec<_>>()
+        .into_pyarray(py))
+}
