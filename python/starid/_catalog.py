@@ -202,27 +202,27 @@ class Catalog:
     @property
     def ids(self) -> npt.NDArray[np.int64]:
         """Catalogue ids (int64)."""
-        return self._native.ids  # type: ignore[no-any-return]
+        return self._native.ids
 
     @property
     def ra_deg(self) -> npt.NDArray[np.float64]:
         """Right ascension in degrees, [0, 360)."""
-        return self._native.ra_deg  # type: ignore[no-any-return]
+        return self._native.ra_deg
 
     @property
     def dec_deg(self) -> npt.NDArray[np.float64]:
         """Declination in degrees."""
-        return self._native.dec_deg  # type: ignore[no-any-return]
+        return self._native.dec_deg
 
     @property
     def mag(self) -> npt.NDArray[np.float64]:
         """Magnitudes."""
-        return self._native.mag  # type: ignore[no-any-return]
+        return self._native.mag
 
     @property
     def unit_vectors(self) -> npt.NDArray[np.float64]:
         """ICRS unit vectors, shape (N, 3)."""
-        return self._native.unit_vectors  # type: ignore[no-any-return]
+        return self._native.unit_vectors
 
     def filter(self, mag_limit: float) -> "Catalog":
         """The stars with ``mag <= mag_limit`` as a new catalogue."""

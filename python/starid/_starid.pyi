@@ -12,6 +12,10 @@ __all__ = [
     "IdentifyConfig",
     "StaridError",
     "__version__",
+    "guide_field_counts",
+    "guide_metrics",
+    "guide_nearest_neighbours",
+    "guide_select",
     "identify",
     "identify_many",
     "simulate",
@@ -115,3 +119,18 @@ def simulate(
     drop_fraction: float = 0.0,
     mirrored: bool = False,
 ) -> dict[str, Any]: ...
+def guide_select(
+    catalog: Catalog,
+    method: str,
+    *,
+    mag_limit: Optional[float] = None,
+    separation_deg: Optional[float] = None,
+    merge: bool = False,
+    cell_deg: Optional[float] = None,
+    level: Optional[int] = None,
+) -> Catalog: ...
+def guide_metrics(catalog: Catalog, fov_deg: float, trials: int, seed: int, field: str) -> dict[str, Any]: ...
+def guide_field_counts(
+    catalog: Catalog, fov_deg: float, trials: int, seed: int, field: str
+) -> npt.NDArray[np.uint64]: ...
+def guide_nearest_neighbours(catalog: Catalog) -> npt.NDArray[np.float64]: ...

@@ -140,7 +140,7 @@ def _identify(args: argparse.Namespace) -> int:
         else:
             print(f"== {path}  ({len(stars.labels)} centroids)")
             print(_table(stars.labels, res))
-            if res.ok:
+            if res.ok and res.quaternion is not None:
                 q = np.array2string(res.quaternion, precision=9, separator=", ")
                 print(
                     f"attitude: ra {res.ra_deg:.6f} deg, dec {res.dec_deg:+.6f} deg, roll {res.roll_deg:.5f} deg, "
@@ -267,7 +267,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return _catalog_info(args)
     except BrokenPipeError:
         # The reader went away (e.g. `starid ... | head`): not an error of ours.
-        sys.stdout = None  # type: ignore[assignment]
+        sys.stdout = None
         return 0
     except (ValueError, OSError, ImportError) as e:
         print(f"starid: error: {e}", file=sys.stderr)

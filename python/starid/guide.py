@@ -92,7 +92,7 @@ def qtm_triangle_count(level: int) -> int:
     """
     if level < 1:
         raise ValueError(f"the QTM level must be >= 1, got {level}")
-    return 8 * 4 ** (level - 1)
+    return int(8 * 4 ** (level - 1))
 
 
 def select(catalog: Union[Catalog, PathLike, None] = None, method: str = "qtm-weighted", **params: Any) -> Catalog:
