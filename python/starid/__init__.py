@@ -12,6 +12,7 @@ The heavy lifting (k-vector pair index, Pyramid search, verification, attitude) 
 the Rust core; see ARCHITECTURE.md.
 """
 
+from . import guide
 from ._catalog import DEFAULT_CATALOG_PATH, Catalog
 from ._errors import CatalogError, StaridError
 from ._identify import Frame, Identification, identify, identify_many, simulate
@@ -26,6 +27,7 @@ __all__ = [
     "Identification",
     "StaridError",
     "__version__",
+    "guide",
     "identify",
     "identify_many",
     "read_star_list",

@@ -88,6 +88,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--catalog", type=Path)
     plot.add_argument("--level", type=int, default=5)
     plot.add_argument("--cell-deg", type=float, default=5.0)
+    plot.add_argument("--dpi", type=int, default=120)
     return p
 
 
@@ -249,7 +250,7 @@ def _guide(args: argparse.Namespace) -> int:
         f"QTM level {args.level}": guide.select(cat, "qtm", level=args.level),
         f"QTM level {args.level} weighted": guide.select(cat, "qtm-weighted", level=args.level),
     }
-    guide.plot(selections, args.output, title=repr(cat))
+    guide.plot(selections, args.output, title=repr(cat), dpi=args.dpi)
     print(f"wrote {args.output}")
     return 0
 
