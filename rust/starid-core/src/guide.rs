@@ -584,7 +584,11 @@ mod tests {
                 .filter(|&j| j != i)
                 .map(|j| angle_between(&v[i], &v[j]))
                 .fold(f64::INFINITY, f64::min);
-            assert!((nn[i] - want).abs() < 1e-12, "star {i}: {} vs {want}", nn[i]);
+            assert!(
+                (nn[i] - want).abs() < 1e-12,
+                "star {i}: {} vs {want}",
+                nn[i]
+            );
         }
     }
 
@@ -592,14 +596,33 @@ mod tests {
     fn monte_carlo_matches_area_fraction() {
         // Uniform sky of 4000 stars, 10° circular field: mean count = N (1 - cos 5°) / 2.
         let cat = random_catalog(4000, 1.0, 6.0, 1).unwrap();
-        let m = metrics(&cat, Field::Circle { fov_rad: 10f64.to_radians() }, 20_000, 5).unwrap();
+        let m = metrics(
+            &cat,
+            Field::Circle {
+                fov_rad: 10f64.to_radians(),
+            },
+            20_000,
+            5,
+        )
+        .unwrap();
         let expect = 4000.0 * (1.0 - 5f64.to_radians().cos()) / 2.0;
         assert!((m.mean_stars_per_field() - expect).abs() < 0.05 * expect);
         assert_eq!(m.trials(), 20_000);
         // A square field of the same side holds 4/π times as many.
-        let sq = field_star_counts(&cat, Field::Square { fov_rad: 10f64.to_radians() }, 20_000, 5)
-            .unwrap();
-        let mean_sq: f64 = sq.iter().enumerate().map(|(k, &n)| (k as u64 * n) as f64).sum::<f64>()
+        let sq = field_star_counts(
+            &cat,
+            Field::Square {
+                fov_rad: 10f64.to_radians(),
+            },
+            20_000,
+            5,
+        )
+        .unwrap();
+        let mean_sq: f64 = sq
+            .iter()
+            .enumerate()
+            .map(|(k, &n)| (k as u64 * n) as f64)
+            .sum::<f64>()
             / 20_000.0;
         assert!((mean_sq / m.mean_stars_per_field() - 4.0 / PI).abs() < 0.05);
         // Pair count equals the index that would be built.
@@ -607,8 +630,15 @@ mod tests {
         assert_eq!(m.pairs, built.len());
         assert_eq!(m.index_bytes, built.memory_bytes());
         // Same seed, same answer.
-        let again = field_star_counts(&cat, Field::Circle { fov_rad: 10f64.to_radians() }, 20_000, 5)
-            .unwrap();
+        let again = field_star_counts(
+            &cat,
+            Field::Circle {
+                fov_rad: 10f64.to_radians(),
+            },
+            20_000,
+            5,
+        )
+        .unwrap();
         assert_eq!(again, m.stars_per_field);
     }
 

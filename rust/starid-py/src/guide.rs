@@ -52,9 +52,8 @@ pub fn guide_select(
             run_core(py, move || guide::select_rectangle(&cat, cell))?
         }
         "qtm" | "qtm-weighted" => {
-            let level = level.ok_or_else(|| {
-                PyValueError::new_err(format!("method '{method}' needs level"))
-            })?;
+            let level = level
+                .ok_or_else(|| PyValueError::new_err(format!("method '{method}' needs level")))?;
             let rule = if method == "qtm" {
                 QtmRule::Brightest
             } else {
@@ -95,7 +94,9 @@ pub fn guide_field_counts<'py>(
 ) -> PyResult<Bound<'py, numpy::PyArray1<u64>>> {
     let field = parse_field(field, fov_deg)?;
     let cat = catalog.inner.clone();
-    let hist = run_core(py, move || guide::field_star_counts(&cat, field, trials, seed))?;
+    let hist = run_core(py, move || {
+        guide::field_star_counts(&cat, field, trials, seed)
+    })?;
     Ok(hist.into_pyarray(py))
 }
 
@@ -121,7 +122,10 @@ pub fn guide_metrics<'py>(
     d.set_item("p_at_least_3", m.p_at_least(3))?;
     d.set_item("mean_stars_per_field", m.mean_stars_per_field())?;
     d.set_item("trials", m.trials())?;
-    d.set_item("stars_per_field", m.stars_per_field.clone().into_pyarray(py))?;
+    d.set_item(
+        "stars_per_field",
+        m.stars_per_field.clone().into_pyarray(py),
+    )?;
     d.set_item("pairs", m.pairs)?;
     d.set_item("index_bytes", m.index_bytes)?;
     Ok(d)

@@ -23,7 +23,7 @@ proptest! {
     }
 
     #[test]
-    fn attitude_parametrisation_round_trips(ra in 0.0..6.28f64, dec in -1.5..1.5f64, roll in 0.0..6.28f64) {
+    fn attitude_parametrisation_round_trips(ra in 0.0..std::f64::consts::TAU, dec in -1.5..1.5f64, roll in 0.0..std::f64::consts::TAU) {
         let r = attitude_from_radec_roll(ra, dec, roll);
         let (ra2, dec2, roll2) = radec_roll_from_attitude(&r);
         let back = attitude_from_radec_roll(ra2, dec2, roll2);
