@@ -55,6 +55,8 @@ pub mod geometry;
 pub mod guide;
 pub mod identify;
 pub mod kvector;
+pub mod lsq;
+pub mod pointing;
 pub mod simulate;
 pub mod sky;
 

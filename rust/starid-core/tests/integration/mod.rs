@@ -1,4 +1,5 @@
 mod geometry;
 mod identify;
 mod kvector;
+mod pointing;
 mod strategies;

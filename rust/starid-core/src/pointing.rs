@@ -1,0 +1,1317 @@
+//! Pointing and focal length: the boresight from star distances, the refinement of attitude and
+//! camera over all matched stars, the precision that follows from the stars' geometry, and the
+//! choice of the stars that give the best one.
+//!
+//! # Boresight from distances ([`boresight_from_distances`])
+//! A star at distance `aᵢ` (pixels) from the principal point of a pinhole camera of focal length
+//! `f` lies at angle `θᵢ = atan(aᵢ/f)` from the boresight `D`: each star gives a cone around it.
+//! With `f` known, two cones meet in at most two points (closed form) and the third star picks
+//! one; with `f` unknown, the feasible focal lengths are bounded by the triangle inequalities
+//! (`θᵢ + θⱼ ≥ αᵢⱼ`), the profile of the best cone fit over a log-spaced scan of that interval
+//! gives the starting points, and Levenberg–Marquardt refines `(D, f)` from each. Residuals are
+//! in pixels (`f·tan∠(D, sᵢ) − aᵢ`), so the least-squares solution is the maximum-likelihood one
+//! for Gaussian centroid noise. Every distinct solution is returned, best first, with flags:
+//! - `ambiguous`: another solution fits as well. Three stars on one great circle (collinear
+//!   images) have a mirror solution across that circle with the very same distances; with `f`
+//!   unknown, three stars can have several exact solutions.
+//! - `degenerate`: the Jacobian is rank-deficient at the solution, so a direction of parameter
+//!   space is not determined to first order (collinear images through the principal point).
+//!
+//! # Refinement ([`refine_pointing`], [`fit_pointing`])
+//! Levenberg–Marquardt over the attitude (3 small rotations), the focal length and optionally
+//! the principal point and the first radial distortion coefficient `k1`
+//! (`x = cx + f·u·(1 + k1·(u² + v²))`, `u, v` the normalised camera coordinates), minimising
+//! pixel residuals of all matched stars, with the covariance `σ²(JᵀJ)⁻¹` of the estimate.
+//!
+//! # Precision and star choice ([`predicted_distance_covariance`], [`choose_stars`])
+//! The covariance of the distance solution depends only on the images' positions relative to
+//! the principal point and on `f`: a star at offset `aᵢ·uᵢ` contributes the row
+//! `[−(f + aᵢ²/f)·uᵢ, aᵢ/f]` to the Jacobian (boresight, focal length). Edge stars weigh more
+//! (`f + a²/f` grows with `a`) and directions spread around the centre constrain both
+//! boresight axes; collinear or clustered images do not.
+
+use nalgebra::{DMatrix, DVector, Matrix2, Rotation3, Vector2, Vector3};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+use crate::attitude::wahba_svd;
+use crate::error::{Error, Result};
+use crate::geometry::angle_between;
+use crate::lsq::{self, Problem};
+
+/// Largest number of stars the pointing functions accept.
+pub const MAX_STARS: usize = 100_000;
+
+/// Reciprocal condition (scaled Jacobian) below which a solution is flagged degenerate: some
+/// direction of the parameters is determined about 100 times worse than by a well-spread set of
+/// stars (well-spread triples score 0.1–1).
+pub const DEGENERATE_RCOND: f64 = 1e-2;
+
+/// Angle below which two boresight solutions are the same one, radians (0.02″).
+const SAME_SOLUTION_RAD: f64 = 1e-7;
+
+/// One boresight solution of [`boresight_from_distances`].
+#[derive(Debug, Clone)]
+pub struct DistanceSolution {
+    /// Boresight, ICRS unit vector.
+    pub boresight: Vector3<f64>,
+    /// Focal length, pixels (the given one when it was known).
+    pub focal_length_px: f64,
+    /// `f·tan∠(D, sᵢ) − aᵢ` per star, pixels.
+    pub residuals_px: Vec<f64>,
+    /// Root mean square of the residuals, pixels.
+    pub rms_px: f64,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// Whether the iteration converged.
+    pub converged: bool,
+    /// Another solution fits as well (within a factor 2 in rms, or both exact).
+    pub ambiguous: bool,
+    /// Reciprocal condition of the scaled Jacobian at the solution (1: ideal, 0: singular).
+    pub condition: f64,
+    /// `condition` below [`DEGENERATE_RCOND`]: some direction of the parameters is (nearly)
+    /// undetermined, so the solution should not be trusted.
+    pub degenerate: bool,
+    /// `(JᵀJ)⁻¹` for 1 px of distance noise, parameters (east, north[, focal px]) with the
+    /// boresight components in radians along the local east and north; `None` when degenerate.
+    pub unit_covariance: Option<DMatrix<f64>>,
+}
+
+impl DistanceSolution {
+    /// 1σ angular error of the boresight (√ of the trace of its 2×2 block), radians, for
+    /// `sigma_px` of noise on each distance; infinite when degenerate.
+    pub fn boresight_sigma_rad(&self, sigma_px: f64) -> f64 {
+        self.unit_covariance
+            .as_ref()
+            .map_or(f64::INFINITY, |c| sigma_px * (c[(0, 0)] + c[(1, 1)]).sqrt())
+    }
+}
+
+/// Local east and north unit vectors at `d` (any orthonormal pair at the poles).
+fn tangent_basis(d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let east = Vector3::z().cross(d);
+    let east = if east.norm() < 1e-9 {
+        Vector3::y()
+    } else {
+        east.normalize()
+    };
+    (east, d.cross(&east))
+}
+
+struct Distances<'a> {
+    stars: &'a [Vector3<f64>],
+    distances_px: &'a [f64],
+    /// `Some(f)` for a known focal length.
+    known_focal_px: Option<f64>,
+}
+
+#[derive(Clone)]
+struct DistanceState {
+    d: Vector3<f64>,
+    ln_f: f64,
+}
+
+impl Problem for Distances<'_> {
+    type State = DistanceState;
+
+    fn evaluate(&self, s: &DistanceState) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        let n = self.stars.len();
+        let p = if self.known_focal_px.is_some() { 2 } else { 3 };
+        let f = s.ln_f.exp();
+        let (e1, e2) = tangent_basis(&s.d);
+        let mut r = DVector::zeros(n);
+        let mut j = DMatrix::zeros(n, p);
+        for (i, star) in self.stars.iter().enumerate() {
+            let phi = angle_between(&s.d, star);
+            if phi >= 89.5f64.to_radians() {
+                return None;
+            }
+            let (sin, cos) = phi.sin_cos();
+            r[i] = f * phi.tan() - self.distances_px[i];
+            if sin > 1e-15 {
+                // Moving D by δ along e changes φ by −δ·(t·e), t the unit tangent towards the star.
+                let t = (star - s.d * cos) / sin;
+                let dr_dphi = f / (cos * cos);
+                j[(i, 0)] = -dr_dphi * t.dot(&e1);
+                j[(i, 1)] = -dr_dphi * t.dot(&e2);
+            }
+            if p == 3 {
+                j[(i, 2)] = f * phi.tan();
+            }
+        }
+        Some((r, j))
+    }
+
+    fn step(&self, s: &DistanceState, delta: &DVector<f64>) -> DistanceState {
+        let (e1, e2) = tangent_basis(&s.d);
+        DistanceState {
+            d: (s.d + e1 * delta[0] + e2 * delta[1]).normalize(),
+            ln_f: if delta.len() > 2 {
+                s.ln_f + delta[2].clamp(-1.0, 1.0)
+            } else {
+                s.ln_f
+            },
+        }
+    }
+}
+
+fn check_stars(stars: &[Vector3<f64>], what: &str) -> Result<()> {
+    if stars.len() > MAX_STARS {
+        return Err(Error::invalid_input(format!(
+            "at most {MAX_STARS} {what} are accepted, got {}",
+            stars.len()
+        )));
+    }
+    for (i, s) in stars.iter().enumerate() {
+        if !s.iter().all(|c| c.is_finite()) || (s.norm() - 1.0).abs() > 1e-6 {
+            return Err(Error::invalid_input(format!(
+                "star {i} is not a finite unit vector"
+            )));
+        }
+    }
+    for i in 0..stars.len() {
+        for k in (i + 1)..stars.len().min(i + 1 + 2000) {
+            if angle_between(&stars[i], &stars[k]) < 1e-9 {
+                return Err(Error::invalid_input(format!(
+                    "stars {i} and {k} are the same direction"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_focal(f: f64) -> Result<()> {
+    if !f.is_finite() || f <= 0.0 || f > 1e9 {
+        return Err(Error::invalid_input(format!(
+            "the focal length must be positive and finite (pixels), got {f}"
+        )));
+    }
+    Ok(())
+}
+
+/// Boresight (and, when `focal_px` is `None`, focal length) from catalogue directions `stars`
+/// and the distances of their images from the principal point, pixels. Returns every distinct
+/// solution, best supported (smallest rms residual) first; see the module documentation.
+///
+/// # Errors
+/// `InvalidInput` for fewer than three stars, mismatched lengths, non-finite or negative
+/// distances, repeated stars, a focal length that is not positive and finite, or stars more
+/// than 179° apart.
+pub fn boresight_from_distances(
+    stars: &[Vector3<f64>],
+    distances_px: &[f64],
+    focal_px: Option<f64>,
+) -> Result<Vec<DistanceSolution>> {
+    if stars.len() < 3 {
+        return Err(Error::invalid_input(format!(
+            "the boresight from distances needs at least 3 stars, got {}",
+            stars.len()
+        )));
+    }
+    if stars.len() != distances_px.len() {
+        return Err(Error::invalid_input(format!(
+            "{} stars but {} distances",
+            stars.len(),
+            distances_px.len()
+        )));
+    }
+    check_stars(stars, "stars")?;
+    if let Some((i, a)) = distances_px
+        .iter()
+        .enumerate()
+        .find(|(_, a)| !a.is_finite() || **a < 0.0 || **a > 1e9)
+    {
+        return Err(Error::invalid_input(format!(
+            "distance {i} must be finite and >= 0 pixels, got {a}"
+        )));
+    }
+    if let Some(f) = focal_px {
+        check_focal(f)?;
+    }
+    if distances_px.iter().all(|&a| a == 0.0) {
+        return Err(Error::invalid_input(
+            "all distances are zero: the stars cannot all sit at the principal point",
+        ));
+    }
+    let problem = Distances {
+        stars,
+        distances_px,
+        known_focal_px: focal_px,
+    };
+    let starts: Vec<DistanceState> = match focal_px {
+        Some(f) => cone_candidates(stars, distances_px, f)
+            .into_iter()
+            .map(|d| DistanceState { d, ln_f: f.ln() })
+            .collect(),
+        None => {
+            let mut starts = unknown_focal_starts(stars, distances_px);
+            if stars.len() == 3 {
+                starts.extend(three_star_roots(stars, distances_px));
+            }
+            starts
+        }
+    };
+    let mut found: Vec<DistanceSolution> = Vec::new();
+    for start in starts {
+        let Some(sol) = lsq::solve(&problem, start, 200) else {
+            continue;
+        };
+        let f = sol.state.ln_f.exp();
+        let d = sol.state.d;
+        if found.iter().any(|s| {
+            angle_between(&s.boresight, &d) < SAME_SOLUTION_RAD
+                && (s.focal_length_px - f).abs() <= 1e-6 * f
+        }) {
+            continue;
+        }
+        let n = stars.len() as f64;
+        let rms = (sol.cost() / n).sqrt();
+        // Scale the boresight columns by the full sensitivity of the distances to the angle
+        // from the axis, and the focal column by its own norm: a boresight direction that no
+        // distance depends on (stars on one line through the principal point) then shows.
+        let row_scale: f64 = stars
+            .iter()
+            .map(|s| {
+                let c = s.dot(&d).clamp(-1.0, 1.0);
+                (f / (c * c)).powi(2)
+            })
+            .sum::<f64>()
+            .sqrt();
+        let mut scales = vec![row_scale, row_scale];
+        if focal_px.is_none() {
+            scales.push(sol.jacobian.column(2).norm().max(1e-300));
+        }
+        let rcond = lsq::reciprocal_condition_scaled(&sol.jacobian, &scales);
+        let degenerate = rcond < DEGENERATE_RCOND;
+        let unit_covariance = if degenerate {
+            None
+        } else {
+            lsq::inverse_normal_matrix(&sol.jacobian).map(|mut c| {
+                // ln f → f.
+                if c.nrows() == 3 {
+                    for k in 0..3 {
+                        c[(2, k)] *= f;
+                        c[(k, 2)] *= f;
+                    }
+                }
+                c
+            })
+        };
+        found.push(DistanceSolution {
+            boresight: d,
+            focal_length_px: f,
+            residuals_px: sol.residuals.iter().copied().collect(),
+            rms_px: rms,
+            iterations: sol.iterations,
+            converged: sol.converged,
+            ambiguous: false,
+            condition: rcond,
+            degenerate,
+            unit_covariance,
+        });
+    }
+    found.sort_by(|a, b| a.rms_px.total_cmp(&b.rms_px));
+    // A second solution is as good when it fits within twice the best rms, or both are exact
+    // to rounding (1e-9 of the largest distance).
+    let scale = distances_px.iter().copied().fold(0.0f64, f64::max);
+    if found.len() > 1 {
+        let floor = 1e-9 * scale;
+        let limit = 2.0 * found[0].rms_px + floor;
+        let rivals = found.iter().filter(|s| s.rms_px <= limit).count();
+        if rivals > 1 {
+            for s in found.iter_mut().filter(|s| s.rms_px <= limit) {
+                s.ambiguous = true;
+            }
+        }
+    }
+    if found.is_empty() {
+        return Err(Error::invalid_input(
+            "no boresight puts every star within 89.5 degrees of the axis at these distances",
+        ));
+    }
+    Ok(found)
+}
+
+/// Starting boresights for a known focal length: both intersections of every pair of cones
+/// (the closest approach when two cones miss) and the linear solution of `S·D = cos θ`.
+fn cone_candidates(stars: &[Vector3<f64>], distances_px: &[f64], f: f64) -> Vec<Vector3<f64>> {
+    let cos_t: Vec<f64> = distances_px
+        .iter()
+        .map(|a| f / (a * a + f * f).sqrt())
+        .collect();
+    let mut out = Vec::new();
+    // Use the pairs of the (up to) 6 stars farthest from the boresight: their cones are sharpest.
+    let mut order: Vec<usize> = (0..stars.len()).collect();
+    order.sort_by(|&a, &b| distances_px[b].total_cmp(&distances_px[a]));
+    order.truncate(6);
+    for (x, &i) in order.iter().enumerate() {
+        for &k in &order[x + 1..] {
+            pair_intersections(&stars[i], &stars[k], cos_t[i], cos_t[k], &mut out);
+        }
+    }
+    // Linear least squares: rows sᵢᵀ, right side cos θᵢ.
+    let n = stars.len();
+    let s = DMatrix::from_fn(n, 3, |r, c| stars[r][c]);
+    let b = DVector::from_vec(cos_t);
+    if let Ok(x) = s.svd(true, true).solve(&b, 1e-10) {
+        let v = Vector3::new(x[0], x[1], x[2]);
+        if v.norm() > 1e-9 {
+            out.push(v.normalize());
+        }
+    }
+    out.retain(|d| stars.iter().all(|s| s.dot(d) > 0.0087));
+    out
+}
+
+fn pair_intersections(
+    si: &Vector3<f64>,
+    sk: &Vector3<f64>,
+    ci: f64,
+    ck: f64,
+    out: &mut Vec<Vector3<f64>>,
+) {
+    let g = si.dot(sk);
+    let n = si.cross(sk);
+    let nn = n.norm_squared();
+    if nn < 1e-18 {
+        return;
+    }
+    let x = (ci - g * ck) / (1.0 - g * g);
+    let y = (ck - g * ci) / (1.0 - g * g);
+    let in_plane = x * x + y * y + 2.0 * x * y * g;
+    let z2 = (1.0 - in_plane) / nn;
+    let base = si * x + sk * y;
+    if z2 > 0.0 {
+        let z = z2.sqrt();
+        out.push((base + n * z).normalize());
+        out.push((base - n * z).normalize());
+    } else if base.norm() > 1e-12 {
+        out.push(base.normalize());
+    }
+}
+
+/// Largest focal length at which the cones of stars `i`, `k` still meet: `θᵢ + θₖ = αᵢₖ`.
+fn focal_upper_bound(ai: f64, ak: f64, alpha: f64) -> f64 {
+    // tan(θᵢ + θₖ) = (aᵢ + aₖ)·f / (f² − aᵢaₖ) = tan α  ⇒  f² − b·f − aᵢaₖ = 0, b = (aᵢ + aₖ)/tan α
+    // (valid on both sides of 90°).
+    let (sin, cos) = alpha.sin_cos();
+    if sin <= 0.0 {
+        return f64::INFINITY;
+    }
+    let b = (ai + ak) * cos / sin;
+    0.5 * (b + (b * b + 4.0 * ai * ak).sqrt())
+}
+
+/// A focal length of the scan and its cone candidates with their misfits.
+type ScanPoint = (f64, Vec<(f64, Vector3<f64>)>);
+
+/// The feasible focal interval `[f_lo, f_hi]` of [`unknown_focal_starts`].
+fn focal_interval(stars: &[Vector3<f64>], distances_px: &[f64]) -> Option<(f64, f64)> {
+    let n = stars.len();
+    let mut f_hi = f64::INFINITY;
+    for i in 0..n {
+        for k in (i + 1)..n.min(i + 50) {
+            let alpha = angle_between(&stars[i], &stars[k]);
+            f_hi = f_hi.min(focal_upper_bound(distances_px[i], distances_px[k], alpha));
+        }
+    }
+    let a_max = distances_px.iter().copied().fold(0.0f64, f64::max);
+    if !f_hi.is_finite() || f_hi <= 0.0 {
+        return None;
+    }
+    Some(((a_max / 89f64.to_radians().tan()).min(f_hi * 0.999), f_hi))
+}
+
+/// Every exact solution of the three-star problem with unknown focal length. The cones of the
+/// two stars farthest from the axis meet in two points `D±(f)` for each feasible `f`; the
+/// solutions are the roots of the third star's misfit `g±(f) = ∠(D±(f), s₃) − atan(a₃/f)`.
+/// Each branch is scanned on a fine log grid; sign changes are bisected, and local minima of
+/// `|g|` that dip through zero between grid points (two close roots) are split and bisected too.
+fn three_star_roots(stars: &[Vector3<f64>], distances_px: &[f64]) -> Vec<DistanceState> {
+    let Some((f_lo, f_hi)) = focal_interval(stars, distances_px) else {
+        return Vec::new();
+    };
+    let mut idx = [0usize, 1, 2];
+    idx.sort_by(|&a, &b| distances_px[b].total_cmp(&distances_px[a]));
+    let [p, q, t] = idx;
+    let branch = |f: f64, sign: f64| -> Option<(f64, Vector3<f64>)> {
+        let cp = f / distances_px[p].hypot(f);
+        let cq = f / distances_px[q].hypot(f);
+        let (sp, sq) = (&stars[p], &stars[q]);
+        let g = sp.dot(sq);
+        let n = sp.cross(sq);
+        let nn = n.norm_squared();
+        if nn < 1e-18 {
+            return None;
+        }
+        let x = (cp - g * cq) / (1.0 - g * g);
+        let y = (cq - g * cp) / (1.0 - g * g);
+        let z2 = (1.0 - (x * x + y * y + 2.0 * x * y * g)) / nn;
+        if z2 < 0.0 {
+            return None;
+        }
+        let d = (sp * x + sq * y + n * (sign * z2.sqrt())).normalize();
+        Some((
+            angle_between(&d, &stars[t]) - (distances_px[t] / f).atan(),
+            d,
+        ))
+    };
+    const GRID: usize = 2000;
+    let ratio = (f_hi / f_lo).ln();
+    let at = |k: f64| f_lo * (ratio * k / (GRID - 1) as f64).exp();
+    let mut out = Vec::new();
+    for sign in [1.0, -1.0] {
+        let vals: Vec<Option<f64>> = (0..GRID)
+            .map(|k| branch(at(k as f64), sign).map(|v| v.0))
+            .collect();
+        let bisect = |mut lo: f64, mut hi: f64| -> Option<DistanceState> {
+            let g_lo = branch(at(lo), sign)?.0;
+            for _ in 0..80 {
+                let mid = 0.5 * (lo + hi);
+                let g_mid = branch(at(mid), sign)?.0;
+                if (g_mid < 0.0) == (g_lo < 0.0) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let f = at(0.5 * (lo + hi));
+            branch(f, sign).map(|(_, d)| DistanceState { d, ln_f: f.ln() })
+        };
+        for k in 0..GRID - 1 {
+            let (Some(a), Some(b)) = (vals[k], vals[k + 1]) else {
+                continue;
+            };
+            if (a < 0.0) != (b < 0.0) {
+                out.extend(bisect(k as f64, (k + 1) as f64));
+            }
+        }
+        for k in 1..GRID - 1 {
+            let (Some(a), Some(b), Some(c)) = (vals[k - 1], vals[k], vals[k + 1]) else {
+                continue;
+            };
+            let same_sign = (a < 0.0) == (b < 0.0) && (b < 0.0) == (c < 0.0);
+            if !(same_sign && b.abs() <= a.abs() && b.abs() <= c.abs()) {
+                continue;
+            }
+            // Golden-section search for the extremum of |g| in [k−1, k+1].
+            let (mut lo, mut hi) = ((k - 1) as f64, (k + 1) as f64);
+            let gold = 0.5 * (5f64.sqrt() - 1.0);
+            let absg = |x: f64| {
+                branch(at(x), sign).map_or(f64::INFINITY, |v| {
+                    v.0.abs() * if (v.0 < 0.0) == (b < 0.0) { 1.0 } else { -1.0 }
+                })
+            };
+            for _ in 0..80 {
+                let m1 = hi - gold * (hi - lo);
+                let m2 = lo + gold * (hi - lo);
+                if absg(m1) < absg(m2) {
+                    hi = m2;
+                } else {
+                    lo = m1;
+                }
+            }
+            let m = 0.5 * (lo + hi);
+            let Some((gm, d)) = branch(at(m), sign) else {
+                continue;
+            };
+            if (gm < 0.0) != (b < 0.0) {
+                out.extend(bisect((k - 1) as f64, m));
+                out.extend(bisect(m, (k + 1) as f64));
+            } else if gm.abs() < 1e-12 {
+                out.push(DistanceState {
+                    d,
+                    ln_f: at(m).ln(),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Starting points for an unknown focal length from the geometry: the interval of focal lengths
+/// at which every pair of cones meets, scanned on a log grid; at each focal length the best
+/// closed-form cone intersection is scored by its angular misfit, and the local minima of that
+/// profile (the best few) start the full fit.
+fn unknown_focal_starts(stars: &[Vector3<f64>], distances_px: &[f64]) -> Vec<DistanceState> {
+    let Some((f_lo, f_hi)) = focal_interval(stars, distances_px) else {
+        return Vec::new();
+    };
+    const SCAN: usize = 1000;
+    let ratio = (f_hi / f_lo).ln();
+    // Per scan point: focal length and every cone candidate with its angular misfit.
+    let mut profile: Vec<ScanPoint> = Vec::with_capacity(SCAN);
+    for s in 0..SCAN {
+        let f = f_lo * (ratio * (s as f64 + 0.5) / SCAN as f64).exp();
+        let theta: Vec<f64> = distances_px.iter().map(|a| (a / f).atan()).collect();
+        let mut cands: Vec<(f64, Vector3<f64>)> = cone_candidates(stars, distances_px, f)
+            .into_iter()
+            .map(|d| {
+                let misfit: f64 = stars
+                    .iter()
+                    .zip(&theta)
+                    .map(|(st, t)| (angle_between(&d, st) - t).powi(2))
+                    .sum();
+                (misfit, d)
+            })
+            .collect();
+        cands.sort_by(|a, b| a.0.total_cmp(&b.0));
+        profile.push((f, cands));
+    }
+    let best = |s: usize| profile[s].1.first().map_or(f64::INFINITY, |c| c.0);
+    let mut minima: Vec<usize> = (0..SCAN)
+        .filter(|&s| {
+            let c = best(s);
+            c.is_finite() && (s == 0 || c <= best(s - 1)) && (s + 1 == SCAN || c <= best(s + 1))
+        })
+        .collect();
+    minima.sort_by(|&a, &b| best(a).total_cmp(&best(b)));
+    minima.truncate(8);
+    let mut starts = Vec::new();
+    for s in minima {
+        let (f, cands) = &profile[s];
+        let floor = cands[0].0;
+        // Near-equal candidates at one focal length (mirror images) each get a start.
+        let mut taken: Vec<Vector3<f64>> = Vec::new();
+        for (misfit, d) in cands {
+            if *misfit > 4.0 * floor + 1e-20 || taken.len() == 3 {
+                break;
+            }
+            if taken.iter().all(|t| angle_between(t, d) > 1e-6) {
+                taken.push(*d);
+                starts.push(DistanceState {
+                    d: *d,
+                    ln_f: f.ln(),
+                });
+            }
+        }
+    }
+    starts
+}
+
+/// Covariance of the distance solution predicted from the images' offsets from the principal
+/// point (pixels), the focal length and the noise on each distance: `σ²(JᵀJ)⁻¹` with parameters
+/// (boresight along the camera x axis, along the camera y axis[, focal length px]), the
+/// boresight components in radians. `None` when the geometry does not determine them.
+///
+/// # Errors
+/// `InvalidInput` for non-finite offsets, fewer stars than parameters, or a bad focal length or
+/// noise.
+pub fn predicted_distance_covariance(
+    offsets_px: &[[f64; 2]],
+    focal_px: f64,
+    sigma_px: f64,
+    fit_focal: bool,
+) -> Result<Option<DMatrix<f64>>> {
+    check_focal(focal_px)?;
+    if !sigma_px.is_finite() || sigma_px <= 0.0 {
+        return Err(Error::invalid_input(format!(
+            "sigma_px must be positive and finite, got {sigma_px}"
+        )));
+    }
+    let p = if fit_focal { 3 } else { 2 };
+    if offsets_px.len() < 3 {
+        return Err(Error::invalid_input(format!(
+            "need at least 3 stars, got {}",
+            offsets_px.len()
+        )));
+    }
+    if offsets_px.len() > MAX_STARS || offsets_px.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(Error::invalid_input(
+            "offsets must be finite and at most 100000",
+        ));
+    }
+    let j = distance_jacobian(offsets_px, focal_px, p);
+    Ok(lsq::inverse_normal_matrix(&j).map(|c| c * (sigma_px * sigma_px)))
+}
+
+fn distance_jacobian(offsets_px: &[[f64; 2]], f: f64, p: usize) -> DMatrix<f64> {
+    let mut j = DMatrix::zeros(offsets_px.len(), p);
+    for (i, o) in offsets_px.iter().enumerate() {
+        let a = o[0].hypot(o[1]);
+        if a > 0.0 {
+            let w = f + a * a / f;
+            j[(i, 0)] = -w * o[0] / a;
+            j[(i, 1)] = -w * o[1] / a;
+        }
+        if p == 3 {
+            j[(i, 2)] = a / f;
+        }
+    }
+    j
+}
+
+/// Predicted boresight variance (trace of the 2×2 block) of a set of stars; infinite when
+/// undetermined.
+fn boresight_variance(offsets_px: &[[f64; 2]], f: f64, p: usize) -> f64 {
+    let j = distance_jacobian(offsets_px, f, p);
+    match lsq::inverse_normal_matrix(&j) {
+        Some(c) => c[(0, 0)] + c[(1, 1)],
+        None => f64::INFINITY,
+    }
+}
+
+/// The `count` stars of a frame (offsets from the principal point, pixels) whose distances give
+/// the most precise boresight (smallest predicted variance): the best triple by exhaustive
+/// search, then greedily the star that lowers the variance most. Returns the indices (ascending)
+/// and the predicted 1σ boresight error for 1 px of noise, radians.
+///
+/// # Errors
+/// `InvalidInput` for `count < 3`, more stars asked than given, more than 300 stars, non-finite
+/// offsets, or a bad focal length; and when no triple determines the boresight (all collinear
+/// through the principal point).
+pub fn choose_stars(
+    offsets_px: &[[f64; 2]],
+    focal_px: f64,
+    count: usize,
+    fit_focal: bool,
+) -> Result<(Vec<usize>, f64)> {
+    check_focal(focal_px)?;
+    let n = offsets_px.len();
+    if count < 3 || count > n {
+        return Err(Error::invalid_input(format!(
+            "choose between 3 and {n} stars, asked for {count}"
+        )));
+    }
+    if n > 300 {
+        return Err(Error::invalid_input(format!(
+            "star choice searches all triples: at most 300 stars, got {n}"
+        )));
+    }
+    if offsets_px.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(Error::invalid_input("offsets must be finite"));
+    }
+    let p = if fit_focal { 3 } else { 2 };
+    let mut best = (f64::INFINITY, [0usize; 3]);
+    for i in 0..n {
+        for j in (i + 1)..n {
+            for k in (j + 1)..n {
+                let v =
+                    boresight_variance(&[offsets_px[i], offsets_px[j], offsets_px[k]], focal_px, p);
+                if v < best.0 {
+                    best = (v, [i, j, k]);
+                }
+            }
+        }
+    }
+    if !best.0.is_finite() {
+        return Err(Error::invalid_input(
+            "no three of these stars determine the boresight (all on one line through the principal point)",
+        ));
+    }
+    let mut chosen: Vec<usize> = best.1.to_vec();
+    let mut variance = best.0;
+    while chosen.len() < count {
+        let mut pick = (f64::INFINITY, usize::MAX);
+        for c in (0..n).filter(|c| !chosen.contains(c)) {
+            let set: Vec<[f64; 2]> = chosen
+                .iter()
+                .chain(std::iter::once(&c))
+                .map(|&s| offsets_px[s])
+                .collect();
+            let v = boresight_variance(&set, focal_px, p);
+            if v < pick.0 {
+                pick = (v, c);
+            }
+        }
+        chosen.push(pick.1);
+        variance = pick.0;
+    }
+    chosen.sort_unstable();
+    Ok((chosen, variance.sqrt()))
+}
+
+/// Monte Carlo check of [`predicted_distance_covariance`]: the images at `offsets_px` are
+/// placed on a random sky (a random attitude), `trials` sets of distances are perturbed with
+/// Gaussian noise of `sigma_px`, each is solved with [`boresight_from_distances`], and the
+/// scatter of the best solution around the truth is compared with the prediction.
+#[derive(Debug, Clone)]
+pub struct MonteCarlo {
+    /// Predicted covariance (camera x, camera y[, focal px]), radians² / px².
+    pub predicted: DMatrix<f64>,
+    /// Sample covariance of the same parameters over the successful trials.
+    pub sample: DMatrix<f64>,
+    /// Trials whose best solution was another branch (more than 10 predicted σ off), or failed.
+    pub outliers: usize,
+    /// Trials run.
+    pub trials: usize,
+}
+
+/// Run the Monte Carlo described at [`MonteCarlo`].
+///
+/// # Errors
+/// As [`predicted_distance_covariance`]; `InvalidInput` when the geometry is degenerate or
+/// `trials` is not in `2..=1_000_000`.
+pub fn monte_carlo_distances(
+    offsets_px: &[[f64; 2]],
+    focal_px: f64,
+    sigma_px: f64,
+    fit_focal: bool,
+    trials: usize,
+    seed: u64,
+) -> Result<MonteCarlo> {
+    if !(2..=1_000_000).contains(&trials) {
+        return Err(Error::invalid_input(format!(
+            "trials must be in 2..=1000000, got {trials}"
+        )));
+    }
+    let predicted = predicted_distance_covariance(offsets_px, focal_px, sigma_px, fit_focal)?
+        .ok_or_else(|| Error::invalid_input("the geometry does not determine the boresight"))?;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let r = crate::simulate::random_rotation(&mut rng);
+    let stars: Vec<Vector3<f64>> = offsets_px
+        .iter()
+        .map(|o| r.inverse_transform_vector(&Vector3::new(o[0], o[1], focal_px).normalize()))
+        .collect();
+    let truth = r.inverse_transform_vector(&Vector3::z());
+    let (cx, cy) = (
+        r.inverse_transform_vector(&Vector3::x()),
+        r.inverse_transform_vector(&Vector3::y()),
+    );
+    let a0: Vec<f64> = offsets_px.iter().map(|o| o[0].hypot(o[1])).collect();
+    let normal = Normal::new(0.0, sigma_px).map_err(|e| Error::invalid_input(e.to_string()))?;
+    let p = predicted.nrows();
+    let limit = 10.0 * (predicted[(0, 0)] + predicted[(1, 1)]).sqrt();
+    let mut samples: Vec<DVector<f64>> = Vec::with_capacity(trials);
+    let mut outliers = 0;
+    for _ in 0..trials {
+        let a: Vec<f64> = a0
+            .iter()
+            .map(|a| (a + normal.sample(&mut rng)).abs())
+            .collect();
+        let sols = boresight_from_distances(&stars, &a, (!fit_focal).then_some(focal_px));
+        let Some(best) = sols.ok().and_then(|s| s.into_iter().next()) else {
+            outliers += 1;
+            continue;
+        };
+        let e = best.boresight - truth;
+        let v = if p == 3 {
+            DVector::from_vec(vec![
+                e.dot(&cx),
+                e.dot(&cy),
+                best.focal_length_px - focal_px,
+            ])
+        } else {
+            DVector::from_vec(vec![e.dot(&cx), e.dot(&cy)])
+        };
+        if v[0].hypot(v[1]) > limit {
+            outliers += 1;
+            continue;
+        }
+        samples.push(v);
+    }
+    let m = samples.len().max(2) as f64;
+    let mean = samples.iter().fold(DVector::zeros(p), |acc, v| acc + v) / m;
+    let sample = samples.iter().fold(DMatrix::zeros(p, p), |acc, v| {
+        let d = v - &mean;
+        acc + &d * d.transpose()
+    }) / (m - 1.0);
+    Ok(MonteCarlo {
+        predicted,
+        sample,
+        outliers,
+        trials,
+    })
+}
+
+// ------------------------------------------------------------------------------- refinement
+
+/// Camera intrinsics refined by [`refine_pointing`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraModel {
+    /// Focal length, pixels.
+    pub focal_length_px: f64,
+    /// Principal point `(cx, cy)`, pixels in image coordinates.
+    pub principal_point_px: [f64; 2],
+    /// First radial distortion coefficient on normalised coordinates.
+    pub k1: f64,
+}
+
+/// What [`refine_pointing`] fits besides the attitude.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RefineOptions {
+    /// Fit the focal length.
+    pub fit_focal: bool,
+    /// Fit the principal point.
+    pub fit_principal_point: bool,
+    /// Fit the radial distortion `k1`.
+    pub fit_k1: bool,
+    /// The image is mirrored (x reversed about the sensor, `x → W − x`).
+    pub mirrored: bool,
+    /// Centroid noise, 1σ per axis in pixels, for the covariance; `None` estimates it from the
+    /// residuals.
+    pub sigma_px: Option<f64>,
+    /// Iteration limit.
+    pub max_iterations: usize,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        Self {
+            fit_focal: true,
+            fit_principal_point: false,
+            fit_k1: false,
+            mirrored: false,
+            sigma_px: None,
+            max_iterations: 100,
+        }
+    }
+}
+
+/// The outcome of [`refine_pointing`].
+#[derive(Debug, Clone)]
+pub struct PointingFit {
+    /// Rotation ICRS → camera (of the x-reversed image when `mirrored`).
+    pub r_icrs_to_cam: Rotation3<f64>,
+    /// Fitted intrinsics (principal point in the input image's coordinates).
+    pub model: CameraModel,
+    /// Parameter names in covariance order: `rot_x`, `rot_y`, `rot_z` (small rotations about
+    /// the camera axes, radians), then `focal_px`, `cx_px`, `cy_px`, `k1` as fitted.
+    pub parameters: Vec<&'static str>,
+    /// Covariance of the parameters; `None` when the fit does not determine them.
+    pub covariance: Option<DMatrix<f64>>,
+    /// Noise used for the covariance (given or estimated), pixels.
+    pub sigma_px: f64,
+    /// Residual (observed − model) per star, pixels, in input image coordinates.
+    pub residuals_px: Vec<[f64; 2]>,
+    /// Root mean square residual per axis, pixels.
+    pub rms_px: f64,
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Whether the iteration converged.
+    pub converged: bool,
+}
+
+impl PointingFit {
+    fn var(&self, name: &str) -> f64 {
+        match (
+            &self.covariance,
+            self.parameters.iter().position(|p| *p == name),
+        ) {
+            (Some(c), Some(k)) => c[(k, k)],
+            (None, _) => f64::INFINITY,
+            (_, None) => 0.0,
+        }
+    }
+
+    /// 1σ angular error of the boresight, radians (√ of var rot_x + var rot_y).
+    pub fn boresight_sigma_rad(&self) -> f64 {
+        (self.var("rot_x") + self.var("rot_y")).sqrt()
+    }
+
+    /// 1σ error of the roll about the boresight, radians.
+    pub fn roll_sigma_rad(&self) -> f64 {
+        self.var("rot_z").sqrt()
+    }
+
+    /// 1σ error of the focal length, pixels (0 when it was not fitted).
+    pub fn focal_sigma_px(&self) -> f64 {
+        self.var("focal_px").sqrt()
+    }
+
+    /// 2×2 covariance of the boresight along the camera x and y axes, radians².
+    pub fn boresight_covariance(&self) -> Option<Matrix2<f64>> {
+        let c = self.covariance.as_ref()?;
+        // Rotating by φ moves the boresight by (φy, −φx) in camera x, y.
+        Some(Matrix2::new(c[(1, 1)], -c[(0, 1)], -c[(1, 0)], c[(0, 0)]))
+    }
+}
+
+struct Reprojection<'a> {
+    stars: &'a [Vector3<f64>],
+    /// Observed pixels, x already reversed for mirrored frames.
+    xy: Vec<[f64; 2]>,
+    options: RefineOptions,
+}
+
+#[derive(Clone)]
+struct ReprojectionState {
+    r: Rotation3<f64>,
+    model: CameraModel,
+}
+
+impl Reprojection<'_> {
+    fn n_params(&self) -> usize {
+        3 + usize::from(self.options.fit_focal)
+            + 2 * usize::from(self.options.fit_principal_point)
+            + usize::from(self.options.fit_k1)
+    }
+
+    fn names(&self) -> Vec<&'static str> {
+        let mut v = vec!["rot_x", "rot_y", "rot_z"];
+        if self.options.fit_focal {
+            v.push("focal_px");
+        }
+        if self.options.fit_principal_point {
+            v.extend(["cx_px", "cy_px"]);
+        }
+        if self.options.fit_k1 {
+            v.push("k1");
+        }
+        v
+    }
+}
+
+impl Problem for Reprojection<'_> {
+    type State = ReprojectionState;
+
+    fn evaluate(&self, s: &ReprojectionState) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        let n = self.stars.len();
+        let p = self.n_params();
+        let m = &s.model;
+        let f = m.focal_length_px;
+        let [cx, cy] = m.principal_point_px;
+        let mut r = DVector::zeros(2 * n);
+        let mut j = DMatrix::zeros(2 * n, p);
+        for (i, star) in self.stars.iter().enumerate() {
+            let w = s.r * star;
+            if w.z <= 1e-6 {
+                return None;
+            }
+            let (u, v) = (w.x / w.z, w.y / w.z);
+            let rho2 = u * u + v * v;
+            let g = 1.0 + m.k1 * rho2;
+            let (px, py) = (cx + f * u * g, cy + f * v * g);
+            r[2 * i] = px - self.xy[i][0];
+            r[2 * i + 1] = py - self.xy[i][1];
+            // d(px, py)/d(u, v).
+            let dxu = f * (g + 2.0 * m.k1 * u * u);
+            let dxv = f * 2.0 * m.k1 * u * v;
+            let dyu = dxv;
+            let dyv = f * (g + 2.0 * m.k1 * v * v);
+            // d(u, v)/dw and dw/dφ = −[w]×.
+            let du = Vector3::new(1.0 / w.z, 0.0, -w.x / (w.z * w.z));
+            let dv = Vector3::new(0.0, 1.0 / w.z, -w.y / (w.z * w.z));
+            for k in 0..3 {
+                let e = Vector3::ith(k, 1.0);
+                let dw = e.cross(&w); // ∂w/∂φ_k = e_k × w
+                let (du_k, dv_k) = (du.dot(&dw), dv.dot(&dw));
+                j[(2 * i, k)] = dxu * du_k + dxv * dv_k;
+                j[(2 * i + 1, k)] = dyu * du_k + dyv * dv_k;
+            }
+            let mut c = 3;
+            if self.options.fit_focal {
+                j[(2 * i, c)] = u * g;
+                j[(2 * i + 1, c)] = v * g;
+                c += 1;
+            }
+            if self.options.fit_principal_point {
+                j[(2 * i, c)] = 1.0;
+                j[(2 * i + 1, c + 1)] = 1.0;
+                c += 2;
+            }
+            if self.options.fit_k1 {
+                j[(2 * i, c)] = f * u * rho2;
+                j[(2 * i + 1, c)] = f * v * rho2;
+            }
+        }
+        Some((r, j))
+    }
+
+    fn step(&self, s: &ReprojectionState, delta: &DVector<f64>) -> ReprojectionState {
+        let phi = Vector3::new(delta[0], delta[1], delta[2]);
+        let r = Rotation3::new(phi) * s.r;
+        let mut model = s.model;
+        let mut c = 3;
+        if self.options.fit_focal {
+            // Keep f positive: never shrink it by more than half in one step.
+            model.focal_length_px =
+                (model.focal_length_px + delta[c]).max(0.5 * model.focal_length_px);
+            c += 1;
+        }
+        if self.options.fit_principal_point {
+            model.principal_point_px[0] += delta[c];
+            model.principal_point_px[1] += delta[c + 1];
+            c += 2;
+        }
+        if self.options.fit_k1 {
+            model.k1 += delta[c];
+        }
+        ReprojectionState { r, model }
+    }
+}
+
+fn check_xy(stars: &[Vector3<f64>], xy: &[[f64; 2]]) -> Result<()> {
+    if stars.len() != xy.len() {
+        return Err(Error::invalid_input(format!(
+            "{} stars but {} image positions",
+            stars.len(),
+            xy.len()
+        )));
+    }
+    check_stars(stars, "stars")?;
+    if let Some(i) = xy
+        .iter()
+        .position(|p| !p[0].is_finite() || !p[1].is_finite())
+    {
+        return Err(Error::invalid_input(format!(
+            "image position {i} is not finite"
+        )));
+    }
+    Ok(())
+}
+
+/// Refine attitude and camera over matched stars (`stars[i]` imaged at `xy[i]`, pixels) by
+/// Levenberg–Marquardt from `start_r` and `start_model`, fitting what `options` asks.
+///
+/// # Errors
+/// `InvalidInput` for mismatched or non-finite input, a bad starting model, or fewer equations
+/// than unknowns plus one (at least 3 stars).
+pub fn refine_pointing(
+    stars: &[Vector3<f64>],
+    xy: &[[f64; 2]],
+    width_px: f64,
+    start_r: &Rotation3<f64>,
+    start_model: &CameraModel,
+    options: &RefineOptions,
+) -> Result<PointingFit> {
+    check_xy(stars, xy)?;
+    check_focal(start_model.focal_length_px)?;
+    if !start_model.principal_point_px.iter().all(|c| c.is_finite()) || !start_model.k1.is_finite()
+    {
+        return Err(Error::invalid_input(
+            "the starting principal point and k1 must be finite",
+        ));
+    }
+    if let Some(s) = options.sigma_px {
+        if !s.is_finite() || s <= 0.0 {
+            return Err(Error::invalid_input(format!(
+                "sigma_px must be positive and finite, got {s}"
+            )));
+        }
+    }
+    let mirror = |x: f64| if options.mirrored { width_px - x } else { x };
+    let problem = Reprojection {
+        stars,
+        xy: xy.iter().map(|p| [mirror(p[0]), p[1]]).collect(),
+        options: *options,
+    };
+    let p = problem.n_params();
+    if stars.len() < 3 || 2 * stars.len() < p + 1 {
+        return Err(Error::invalid_input(format!(
+            "fitting {p} parameters needs at least {} stars, got {}",
+            (p + 2) / 2 + 1,
+            stars.len()
+        )));
+    }
+    let mut model = *start_model;
+    model.principal_point_px[0] = mirror(model.principal_point_px[0]);
+    let start = ReprojectionState { r: *start_r, model };
+    let sol = lsq::solve(&problem, start, options.max_iterations.max(1)).ok_or_else(|| {
+        Error::invalid_input("a star lies behind the camera at the starting attitude")
+    })?;
+    let dof = 2 * stars.len() - p;
+    let sigma = options
+        .sigma_px
+        .unwrap_or_else(|| (sol.cost() / dof as f64).sqrt());
+    let covariance = lsq::inverse_normal_matrix(&sol.jacobian).map(|c| c * (sigma * sigma));
+    let mut model = sol.state.model;
+    model.principal_point_px[0] = mirror(model.principal_point_px[0]);
+    let residuals_px: Vec<[f64; 2]> = (0..stars.len())
+        .map(|i| {
+            let sign = if options.mirrored { 1.0 } else { -1.0 };
+            // residual = observed − model; in mirrored frames x flips back.
+            [sign * sol.residuals[2 * i], -sol.residuals[2 * i + 1]]
+        })
+        .collect();
+    Ok(PointingFit {
+        r_icrs_to_cam: sol.state.r,
+        model,
+        parameters: problem.names(),
+        covariance,
+        sigma_px: sigma,
+        rms_px: (sol.cost() / (2 * stars.len()) as f64).sqrt(),
+        residuals_px,
+        iterations: sol.iterations,
+        converged: sol.converged,
+    })
+}
+
+/// Focal length from pairs of matched stars with the principal point at the sensor centre:
+/// for every pair the `f` at which the angle between the two pixel rays equals the catalogue
+/// angle (a quadratic in `f²`), the median over pairs weighted towards wide ones (the widest
+/// 64). `None` when no pair gives one.
+pub fn focal_from_pairs(
+    stars: &[Vector3<f64>],
+    xy: &[[f64; 2]],
+    principal_point_px: [f64; 2],
+) -> Option<f64> {
+    let n = stars.len().min(xy.len());
+    let off: Vec<Vector2<f64>> = xy[..n]
+        .iter()
+        .map(|p| Vector2::new(p[0] - principal_point_px[0], p[1] - principal_point_px[1]))
+        .collect();
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for i in 0..n {
+        for k in (i + 1)..n {
+            pairs.push(((off[i] - off[k]).norm(), i, k));
+        }
+    }
+    pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
+    pairs.truncate(64);
+    let mut estimates: Vec<f64> = pairs
+        .iter()
+        .filter_map(|&(_, i, k)| {
+            focal_for_angle(&off[i], &off[k], angle_between(&stars[i], &stars[k]))
+        })
+        .collect();
+    if estimates.is_empty() {
+        return None;
+    }
+    estimates.sort_by(f64::total_cmp);
+    Some(estimates[estimates.len() / 2])
+}
+
+/// The focal length at which pixel offsets `p`, `q` (from the principal point) subtend `alpha`.
+pub fn focal_for_angle(p: &Vector2<f64>, q: &Vector2<f64>, alpha: f64) -> Option<f64> {
+    if !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
+        return None;
+    }
+    // cos α = (p·q + F) / √((|p|² + F)(|q|² + F)), F = f²:
+    // (1 − c²)F² + (2P − c²(a + b))F + P² − c²ab = 0.
+    let c2 = alpha.cos().powi(2);
+    let (pq, a, b) = (p.dot(q), p.norm_squared(), q.norm_squared());
+    let qa = 1.0 - c2;
+    let qb = 2.0 * pq - c2 * (a + b);
+    let qc = pq * pq - c2 * a * b;
+    let disc = qb * qb - 4.0 * qa * qc;
+    if disc < 0.0 {
+        return None;
+    }
+    let roots = [
+        (-qb + disc.sqrt()) / (2.0 * qa),
+        (-qb - disc.sqrt()) / (2.0 * qa),
+    ];
+    roots
+        .into_iter()
+        .filter(|&ff| ff > 0.0 && pq + ff > 0.0)
+        .map(f64::sqrt)
+        .find(|f| {
+            let u = nalgebra::Vector3::new(p.x, p.y, *f);
+            let v = nalgebra::Vector3::new(q.x, q.y, *f);
+            (angle_between(&u, &v) - alpha).abs() < 1e-6 * alpha.max(1e-3)
+        })
+}
+
+/// Attitude and camera from matched stars with no attitude guess: the focal length from
+/// `focal_guess_px` (or [`focal_from_pairs`] when `None`), the attitude by Wahba/SVD from the
+/// pixel rays, then [`refine_pointing`].
+///
+/// # Errors
+/// As [`refine_pointing`]; `InvalidInput` when no focal length can be derived or the stars do
+/// not fix an attitude.
+pub fn fit_pointing(
+    stars: &[Vector3<f64>],
+    xy: &[[f64; 2]],
+    width_px: f64,
+    height_px: f64,
+    focal_guess_px: Option<f64>,
+    options: &RefineOptions,
+) -> Result<PointingFit> {
+    check_xy(stars, xy)?;
+    if !(1.0..=1e6).contains(&width_px) || !(1.0..=1e6).contains(&height_px) {
+        return Err(Error::invalid_input(format!(
+            "image size must be between 1 and 1e6 pixels on each side, got {width_px} x {height_px}"
+        )));
+    }
+    let centre = [0.5 * width_px, 0.5 * height_px];
+    let f0 = match focal_guess_px {
+        Some(f) => {
+            check_focal(f)?;
+            f
+        }
+        None => focal_from_pairs(stars, xy, centre).ok_or_else(|| {
+            Error::invalid_input("no pair of stars gives a focal length; pass a guess")
+        })?,
+    };
+    let sign = if options.mirrored { -1.0 } else { 1.0 };
+    let rays: Vec<Vector3<f64>> = xy
+        .iter()
+        .map(|p| Vector3::new(sign * (p[0] - centre[0]), p[1] - centre[1], f0).normalize())
+        .collect();
+    let r0 = wahba_svd(&rays, stars)
+        .ok_or_else(|| Error::invalid_input("these stars do not fix an attitude"))?;
+    let start = CameraModel {
+        focal_length_px: f0,
+        principal_point_px: centre,
+        k1: 0.0,
+    };
+    refine_pointing(stars, xy, width_px, &r0, &start, options)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{attitude_from_radec_roll, radec_to_unit};
+
+    fn sky(offsets: &[[f64; 2]], f: f64) -> (Rotation3<f64>, Vec<Vector3<f64>>, Vec<f64>) {
+        let r = attitude_from_radec_roll(1.1, 0.4, 0.3);
+        let stars = offsets
+            .iter()
+            .map(|o| r.inverse_transform_vector(&Vector3::new(o[0], o[1], f).normalize()))
+            .collect();
+        (r, stars, offsets.iter().map(|o| o[0].hypot(o[1])).collect())
+    }
+
+    #[test]
+    fn exact_distances_known_and_unknown_focal() {
+        let f = 0.5 * 512.0 / 6f64.to_radians().tan();
+        let offsets = [[200.0, 30.0], [-120.0, 170.0], [-90.0, -210.0]];
+        let (r, stars, a) = sky(&offsets, f);
+        let truth = r.inverse_transform_vector(&Vector3::z());
+        let known = boresight_from_distances(&stars, &a, Some(f)).unwrap();
+        assert!(angle_between(&known[0].boresight, &truth) < 1e-12);
+        assert!(!known[0].ambiguous && !known[0].degenerate);
+        let unknown = boresight_from_distances(&stars, &a, None).unwrap();
+        let hit = unknown
+            .iter()
+            .find(|s| angle_between(&s.boresight, &truth) < 1e-10)
+            .expect("the true solution is among the solutions");
+        assert!((hit.focal_length_px - f).abs() < 1e-9 * f);
+        assert!(hit.rms_px < 1e-9);
+    }
+
+    #[test]
+    fn collinear_images_have_a_mirror_solution() {
+        let f = 2000.0;
+        let offsets = [[-200.0, 50.0], [0.0, 50.0], [180.0, 50.0]];
+        let (_, stars, a) = sky(&offsets, f);
+        let sols = boresight_from_distances(&stars, &a, Some(f)).unwrap();
+        assert!(sols.len() >= 2 && sols[0].ambiguous && sols[1].ambiguous);
+        // Through the principal point: degenerate.
+        let offsets = [[-200.0, 0.0], [30.0, 0.0], [180.0, 0.0]];
+        let (_, stars, a) = sky(&offsets, f);
+        let sols = boresight_from_distances(&stars, &a, Some(f)).unwrap();
+        assert!(sols[0].degenerate);
+    }
+
+    #[test]
+    fn refinement_recovers_focal_and_distortion() {
+        let f = 2400.0;
+        let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+        let mut stars = Vec::new();
+        let mut xy = Vec::new();
+        let k1 = -0.02;
+        for i in 0..12 {
+            let ang = i as f64 * 0.52;
+            let rad = 60.0 + 35.0 * i as f64;
+            let (u, v) = (rad * ang.cos() / f, rad * ang.sin() / f);
+            let g = 1.0 + k1 * (u * u + v * v);
+            xy.push([512.0 + 3.0 + f * u * g, 512.0 - 2.0 + f * v * g]);
+            stars.push(r.inverse_transform_vector(&Vector3::new(u, v, 1.0).normalize()));
+        }
+        let opts = RefineOptions {
+            fit_principal_point: true,
+            fit_k1: true,
+            ..Default::default()
+        };
+        let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(f * 1.3), &opts).unwrap();
+        assert!(fit.converged);
+        assert!((fit.model.focal_length_px - f).abs() < 1e-6 * f);
+        assert!((fit.model.k1 - k1).abs() < 1e-6);
+        assert!((fit.model.principal_point_px[0] - 515.0).abs() < 1e-6);
+        assert!(fit.r_icrs_to_cam.angle_to(&r) < 1e-9);
+        let _ = radec_to_unit(0.0, 0.0);
+    }
+}
