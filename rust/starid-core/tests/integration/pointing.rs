@@ -135,7 +135,7 @@ proptest! {
     /// degenerate (a curve of near-exact solutions); with f known it is well posed. Images on
     /// a circle *about* the principal point (equal distances) leave both problems well posed.
     #[test]
-    fn circles_and_the_unknown_focal_problem(r in rotation(), radius in 80.0..120.0f64, t0 in 0.0..6.28f64) {
+    fn circles_and_the_unknown_focal_problem(r in rotation(), radius in 80.0..120.0f64, t0 in 0.0..std::f64::consts::TAU) {
         let f = focal_12deg();
         let angles = [t0, t0 + 1.9, t0 + 4.1];
         let through: Vec<[f64; 2]> = angles.iter().map(|t| [radius + radius * t.cos(), radius * t.sin()]).collect();
