@@ -375,7 +375,7 @@ impl Solver {
     }
 }
 
-fn validate_centroids(
+pub(crate) fn validate_centroids(
     centroids: &[[f64; 2]],
     magnitudes: Option<&[f64]>,
     camera: &Camera,
@@ -938,6 +938,12 @@ pub fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
         return 1.0;
     }
     let (nf, mf) = (n as f64, m as f64);
+    // Summing upwards from m loses everything to underflow when m lies far below the mean (the
+    // first terms are ~0 while the mass sits near n·p): there, use the complement,
+    // P(X ≥ m) = 1 − P(X ≤ m − 1) = 1 − P(n − X ≥ n − m + 1), n − X ~ Bin(n, 1 − p).
+    if mf <= nf * p {
+        return (1.0 - binomial_tail(n, n - m + 1, 1.0 - p)).clamp(0.0, 1.0);
+    }
     let ln_choose: f64 = (1..=m)
         .map(|i| ((nf - mf + i as f64) / i as f64).ln())
         .sum();
@@ -966,6 +972,20 @@ mod tests {
         assert!((binomial_tail(3, 2, 0.1) - (3.0 * 0.01 * 0.9 + 0.001)).abs() < 1e-15);
         assert_eq!(binomial_tail(5, 0, 0.1), 1.0);
         assert_eq!(binomial_tail(5, 6, 0.1), 0.0);
+        // m far below the mean: the tail is ~1, not lost to underflow (a false-match bound of 0
+        // for a hopeless fit was the bug this guards).
+        assert!(binomial_tail(122, 8, 0.99994) > 0.999_999);
+        assert!((binomial_tail(4, 1, 0.9) - (1.0 - 0.1f64.powi(4))).abs() < 1e-15);
+        assert!((binomial_tail(10, 5, 0.5) - 0.623046875).abs() < 1e-12);
+        for (n, m, p) in [(30usize, 3usize, 0.2f64), (30, 10, 0.3), (50, 40, 0.9), (7, 7, 0.5)] {
+            let direct: f64 = (m..=n)
+                .map(|k| {
+                    let c: f64 = (1..=k).map(|i| (n - k + i) as f64 / i as f64).product();
+                    c * p.powi(k as i32) * (1.0 - p).powi((n - k) as i32)
+                })
+                .sum();
+            assert!((binomial_tail(n, m, p) - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "{n} {m} {p}");
+        }
         // C(40, 20) = 137846528820; the first term dominates.
         let t = binomial_tail(40, 20, 1e-4);
         let first = 137_846_528_820.0 * 1e-80 * (1.0f64 - 1e-4).powi(20);
