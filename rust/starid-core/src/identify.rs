@@ -977,14 +977,22 @@ mod tests {
         assert!(binomial_tail(122, 8, 0.99994) > 0.999_999);
         assert!((binomial_tail(4, 1, 0.9) - (1.0 - 0.1f64.powi(4))).abs() < 1e-15);
         assert!((binomial_tail(10, 5, 0.5) - 0.623046875).abs() < 1e-12);
-        for (n, m, p) in [(30usize, 3usize, 0.2f64), (30, 10, 0.3), (50, 40, 0.9), (7, 7, 0.5)] {
+        for (n, m, p) in [
+            (30usize, 3usize, 0.2f64),
+            (30, 10, 0.3),
+            (50, 40, 0.9),
+            (7, 7, 0.5),
+        ] {
             let direct: f64 = (m..=n)
                 .map(|k| {
                     let c: f64 = (1..=k).map(|i| (n - k + i) as f64 / i as f64).product();
                     c * p.powi(k as i32) * (1.0 - p).powi((n - k) as i32)
                 })
                 .sum();
-            assert!((binomial_tail(n, m, p) - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "{n} {m} {p}");
+            assert!(
+                (binomial_tail(n, m, p) - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15,
+                "{n} {m} {p}"
+            );
         }
         // C(40, 20) = 137846528820; the first term dominates.
         let t = binomial_tail(40, 20, 1e-4);

@@ -59,6 +59,7 @@ pub mod lsq;
 pub mod pointing;
 pub mod simulate;
 pub mod sky;
+pub mod unknown_focal;
 
 pub use catalog::Catalog;
 pub use error::{Error, ErrorKind, Result};
@@ -66,3 +67,4 @@ pub use geometry::Camera;
 pub use identify::{FrameRef, Identification, IdentifyConfig, Solver, Status};
 pub use kvector::PairIndex;
 pub use simulate::{simulate, SimConfig, SimFrame};
+pub use unknown_focal::FocalIdentification;

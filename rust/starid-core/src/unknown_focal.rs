@@ -1,0 +1,476 @@
+//! Identification when the focal length (field of view) is known only to lie in a range.
+//!
+//! # Algorithm
+//! 1. Triangles of the brightest observed stars are visited in Pyramid order. Each triangle's
+//!    shortest side is its *base*: over the focal range it subtends an interval of angles, and
+//!    the k-vector returns every catalogue pair in that interval.
+//! 2. A catalogue pair `(A, B)` for the base fixes the focal length: the `f` at which the two
+//!    pixel rays subtend `∠AB` (a quadratic in `f²`, [`focal_for_angle`]). With `f` and the two
+//!    stars the attitude follows (TRIAD), which predicts where the triangle's third star is on
+//!    the sky; the catalogue's zone index says whether a star is there (within a radius that
+//!    grows with the noise and with how far the base's focal error carries). Both assignments of
+//!    the base and both handednesses are tried.
+//! 3. A triangle that closes gives a better focal length (least squares over its three stars);
+//!    one of the next observed stars must then land on a catalogue star too.
+//! 4. The confirmed focal length goes to the fixed-focal [`Solver::identify`], which searches
+//!    and verifies the frame on its own (false-match bound included). The focal length is then
+//!    refined over all matched stars by Levenberg–Marquardt ([`refine_pointing`]) and the frame
+//!    identified once more with it, so the final matches and residuals use the refined camera.
+//!
+//! At most [`MAX_FOCAL_HYPOTHESES`] focal lengths reach step 4; each is held to
+//! `max_false_match_prob / MAX_FOCAL_HYPOTHESES`, and the reported bound is multiplied by the
+//! number tried (a union bound over the attempts).
+
+use std::time::Instant;
+
+use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
+
+use crate::error::{Error, Result};
+use crate::geometry::Camera;
+use crate::identify::{validate_centroids, Identification, IdentifyConfig, Solver, Status};
+use crate::pointing::{focal_for_angle, refine_pointing, CameraModel, PointingFit, RefineOptions};
+
+/// Most focal-length hypotheses handed to the fixed-focal identification per frame.
+pub const MAX_FOCAL_HYPOTHESES: usize = 8;
+
+/// Hypothesis and pair budgets of one fixed-focal identification inside the search.
+const PER_FOCAL_HYPOTHESES: usize = 3000;
+const PER_FOCAL_PAIRS: usize = 2_000_000;
+
+/// Brightest stars whose triangles are searched.
+const SEARCH_STARS: usize = 10;
+
+/// Largest relative 1σ of the focal length accepted from the matched stars.
+const MAX_FOCAL_SIGMA: f64 = 5e-4;
+
+/// Largest focal-length error, carried to the field's corner, in units of the centroid noise.
+const FOCAL_LEVER: f64 = 2.0;
+
+/// Brightest stars that may confirm a triangle.
+const CONFIRM_STARS: usize = 24;
+
+/// Stars beyond the triangle that must land on catalogue stars before a focal length goes to
+/// the full identification (fewer when the frame has fewer).
+const CONFIRMING_MATCHES: usize = 2;
+
+/// The outcome of [`Solver::identify_unknown_focal`].
+#[derive(Debug, Clone)]
+pub struct FocalIdentification {
+    /// The identification, made with the estimated camera; its `false_match_probability` already
+    /// covers the focal-length hypotheses tried, and `elapsed` the whole search.
+    pub identification: Identification,
+    /// The estimated camera (focal length refined over all matched stars); `None` unless identified.
+    pub camera: Option<Camera>,
+    /// The refinement over all matched stars (focal length with its 1σ, attitude).
+    pub fit: Option<PointingFit>,
+    /// Focal-length hypotheses that reached the fixed-focal identification.
+    pub focal_hypotheses: usize,
+    /// Catalogue pairs examined for triangle bases.
+    pub base_pairs: usize,
+}
+
+impl Solver {
+    /// Identify a frame whose focal length is only known to lie in
+    /// `[focal_range_px.0, focal_range_px.1]` (pixels), and estimate it. See the module
+    /// documentation.
+    ///
+    /// # Errors
+    /// As [`Solver::identify`]; `InvalidInput` for a focal range that is not positive, finite
+    /// and ordered, or wider in field than the pair index covers.
+    pub fn identify_unknown_focal(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        width_px: f64,
+        height_px: f64,
+        focal_range_px: (f64, f64),
+        config: &IdentifyConfig,
+    ) -> Result<FocalIdentification> {
+        let start = Instant::now();
+        let (f_lo, f_hi) = focal_range_px;
+        if !(f_lo.is_finite() && f_hi.is_finite() && f_lo > 0.0 && f_lo <= f_hi) {
+            return Err(Error::invalid_input(format!(
+                "the focal range must be positive, finite and ordered, got [{f_lo}, {f_hi}] px"
+            )));
+        }
+        let widest = Camera::from_focal_length(f_lo, width_px, height_px)?;
+        config.validate()?;
+        validate_centroids(centroids, magnitudes, &widest)?;
+        if widest.diagonal_fov_rad() > self.pair_index().max_angle_rad() * 1.0001 {
+            return Err(Error::invalid_input(format!(
+                "the pair index covers {:.2} degrees but the widest field of the range spans {:.2} degrees \
+                 across the diagonal; build the index for the widest field",
+                self.pair_index().max_angle_rad().to_degrees(),
+                widest.diagonal_fov_rad().to_degrees()
+            )));
+        }
+        let n = centroids.len();
+        let centre = Vector2::new(0.5 * width_px, 0.5 * height_px);
+        let off: Vec<Vector2<f64>> = centroids
+            .iter()
+            .map(|c| Vector2::new(c[0], c[1]) - centre)
+            .collect();
+        let mut order: Vec<usize> = (0..n).collect();
+        if let Some(m) = magnitudes {
+            order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
+        }
+        let top = &order[..n.min(SEARCH_STARS)];
+        let confirm_pool = &order[..n.min(CONFIRM_STARS)];
+        let ladder: Vec<f64> = match config.centroid_sigma_px {
+            Some(s) => vec![s],
+            None => vec![0.3, 1.0],
+        };
+        let deadline = config.timeout.map(|t| start + t);
+        // A right focal length identifies in a few hundred hypotheses; a wrong one should not
+        // cost the full budget.
+        let per_call = IdentifyConfig {
+            max_false_match_prob: config.max_false_match_prob / MAX_FOCAL_HYPOTHESES as f64,
+            max_hypotheses: config.max_hypotheses.min(PER_FOCAL_HYPOTHESES),
+            max_pairs_visited: config.max_pairs_visited.min(PER_FOCAL_PAIRS),
+            timeout: None,
+            ..config.clone()
+        };
+        let mut search = FocalSearch {
+            solver: self,
+            off: &off,
+            f_range: (f_lo * 0.99, f_hi * 1.01),
+            sigma: ladder[0],
+            mirror_too: config.allow_mirrored,
+            base_pairs: 0,
+            tried: Vec::new(),
+        };
+        let mut hypotheses_total = 0usize;
+        let mut status = Status::NoMatch;
+        // Triangles of the brightest stars, shortest base first: a short base has few catalogue
+        // pairs in its angle interval, so a triangle costs little to try.
+        let m = top.len();
+        let mut triangles: Vec<[usize; 3]> = Vec::new();
+        for c in 2..m {
+            for b in 1..c {
+                for a in 0..b {
+                    triangles.push([top[a], top[b], top[c]]);
+                }
+            }
+        }
+        let base_len = |t: &[usize; 3]| {
+            let d = |x: usize, y: usize| (off[x] - off[y]).norm();
+            d(t[0], t[1]).min(d(t[1], t[2])).min(d(t[0], t[2]))
+        };
+        triangles.sort_by(|x, y| base_len(x).total_cmp(&base_len(y)));
+        'search: for &sigma in &ladder {
+            search.sigma = sigma;
+            for &tri in &triangles {
+                if deadline.is_some_and(|d| Instant::now() > d) {
+                    status = Status::Timeout;
+                    break 'search;
+                }
+                if search.base_pairs > config.max_pairs_visited {
+                    status = Status::SearchLimit;
+                    break 'search;
+                }
+                {
+                    {
+                        let others: Vec<usize> = confirm_pool
+                            .iter()
+                            .copied()
+                            .filter(|s| !tri.contains(s))
+                            .collect();
+                        for f in search.triangle(tri, &others) {
+                            if search.tried.len() >= MAX_FOCAL_HYPOTHESES {
+                                status = Status::SearchLimit;
+                                break 'search;
+                            }
+                            if search.tried.iter().any(|&t| (t - f).abs() < 2e-3 * f) {
+                                continue;
+                            }
+                            search.tried.push(f);
+                            let (done, hyps) = self
+                                .finish(centroids, magnitudes, width_px, height_px, f, &per_call)?;
+                            hypotheses_total += hyps;
+                            if let Some((mut id, camera, fit)) = done {
+                                id.hypotheses = hypotheses_total;
+                                id.false_match_probability = (id.false_match_probability
+                                    * search.tried.len() as f64)
+                                    .min(1.0);
+                                id.elapsed = start.elapsed();
+                                return Ok(FocalIdentification {
+                                    identification: id,
+                                    camera: Some(camera),
+                                    fit: Some(fit),
+                                    focal_hypotheses: search.tried.len(),
+                                    base_pairs: search.base_pairs,
+                                });
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(FocalIdentification {
+            identification: Identification {
+                status,
+                catalog_index: vec![None; n],
+                r_icrs_to_cam: None,
+                mirrored: false,
+                residuals_rad: vec![f64::NAN; n],
+                false_match_probability: 1.0,
+                matched: 0,
+                centroid_sigma_px: f64::NAN,
+                match_radius_rad: f64::NAN,
+                hypotheses: hypotheses_total,
+                elapsed: start.elapsed(),
+            },
+            camera: None,
+            fit: None,
+            focal_hypotheses: search.tried.len(),
+            base_pairs: search.base_pairs,
+        })
+    }
+
+    /// Identify with focal length `f`; on success refine `f` over all matches and identify again
+    /// with the refined camera. Returns the identification, the camera, the fit and the
+    /// hypotheses spent.
+    fn finish(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        width_px: f64,
+        height_px: f64,
+        f: f64,
+        config: &IdentifyConfig,
+    ) -> Result<(Option<(Identification, Camera, PointingFit)>, usize)> {
+        let mut camera = Camera::from_focal_length(f, width_px, height_px)?;
+        let mut hyps = 0;
+        let mut last: Option<(Identification, PointingFit)> = None;
+        for _round in 0..3 {
+            let id = self.identify(centroids, magnitudes, &camera, config)?;
+            hyps += id.hypotheses;
+            if std::env::var("STARID_DEBUG").is_ok() {
+                eprintln!(
+                    "finish: f {} -> {:?} matched {} p {:e} sigma {}",
+                    camera.focal_length_px,
+                    id.status,
+                    id.matched,
+                    id.false_match_probability,
+                    id.centroid_sigma_px
+                );
+            }
+            let Some(r) = id.r_icrs_to_cam.filter(|_| id.is_identified()) else {
+                return Ok((last.map(|(id, fit)| (id, camera, fit)), hyps));
+            };
+            let (stars, xy): (Vec<Vector3<f64>>, Vec<[f64; 2]>) = id
+                .catalog_index
+                .iter()
+                .zip(centroids)
+                .filter_map(|(c, p)| c.map(|c| (self.catalog().vectors()[c as usize], *p)))
+                .unzip();
+            let fit = refine_pointing(
+                &stars,
+                &xy,
+                width_px,
+                &r,
+                &CameraModel {
+                    focal_length_px: camera.focal_length_px,
+                    principal_point_px: [0.5 * width_px, 0.5 * height_px],
+                    k1: 0.0,
+                },
+                &RefineOptions {
+                    mirrored: id.mirrored,
+                    sigma_px: None,
+                    ..RefineOptions::default()
+                },
+            )?;
+            let f_new = fit.model.focal_length_px;
+            // The matched stars must pin the focal length down: well enough (relative 1σ at most
+            // MAX_FOCAL_SIGMA) and with enough leverage that the scale error at the field's
+            // corner stays within FOCAL_LEVER noise σ. A tight cluster of stars (the Pleiades)
+            // can verify at a wrong scale; this sends the search on instead.
+            let half_diag = 0.5 * width_px.hypot(height_px);
+            let rel = fit.focal_sigma_px() / f_new;
+            let lever = rel * half_diag / fit.sigma_px.max(1e-3);
+            if !(rel <= MAX_FOCAL_SIGMA && lever <= FOCAL_LEVER) {
+                return Ok((None, hyps));
+            }
+            let settled = (f_new - camera.focal_length_px).abs() < 1e-5 * f_new;
+            last = Some((id, fit));
+            if settled {
+                break;
+            }
+            camera = Camera::from_focal_length(f_new, width_px, height_px)?;
+        }
+        Ok((last.map(|(id, fit)| (id, camera, fit)), hyps))
+    }
+}
+
+struct FocalSearch<'a> {
+    solver: &'a Solver,
+    off: &'a [Vector2<f64>],
+    f_range: (f64, f64),
+    sigma: f64,
+    mirror_too: bool,
+    base_pairs: usize,
+    tried: Vec<f64>,
+}
+
+impl FocalSearch<'_> {
+    fn ray(&self, s: usize, f: f64, mirrored: bool) -> Vector3<f64> {
+        let o = self.off[s];
+        let x = if mirrored { -o.x } else { o.x };
+        Vector3::new(x, o.y, f).normalize()
+    }
+
+    fn angle_at(&self, p: usize, q: usize, f: f64) -> f64 {
+        let (a, b) = (self.off[p], self.off[q]);
+        crate::geometry::angle_between(&Vector3::new(a.x, a.y, f), &Vector3::new(b.x, b.y, f))
+    }
+
+    /// Focal lengths confirmed by triangle `tri` and one of `others`.
+    fn triangle(&mut self, tri: [usize; 3], others: &[usize]) -> Vec<f64> {
+        let d = |a: usize, b: usize| (self.off[a] - self.off[b]).norm();
+        let edges = [
+            (tri[0], tri[1], tri[2]),
+            (tri[1], tri[2], tri[0]),
+            (tri[0], tri[2], tri[1]),
+        ];
+        let &(p, q, r) = edges
+            .iter()
+            .min_by(|x, y| d(x.0, x.1).total_cmp(&d(y.0, y.1)))
+            .expect("three edges");
+        let base = d(p, q);
+        if base < 3.0 * self.sigma {
+            return Vec::new();
+        }
+        let (f_lo, f_hi) = self.f_range;
+        let eps = 3.0 * std::f64::consts::SQRT_2 * self.sigma / f_lo;
+        let lo = self.angle_at(p, q, f_hi) - eps;
+        let hi = self.angle_at(p, q, f_lo) + eps;
+        let index = self.solver.pair_index();
+        let range = index.range(lo.max(0.0), hi);
+        self.base_pairs += range.len();
+        let catalog = self.solver.catalog();
+        let vectors = catalog.vectors();
+        let zones = catalog.zones();
+        let reach = (d(p, r) + d(q, r)) / base;
+        let mut found = Vec::new();
+        for (pair, &angle) in index.pairs(range.clone()).iter().zip(index.angles(range)) {
+            let Some(f) = focal_for_angle(&self.off[p], &self.off[q], f64::from(angle)) else {
+                continue;
+            };
+            if f < f_lo || f > f_hi {
+                continue;
+            }
+            // Predicted third star: noise on three stars plus the base's focal error carried out.
+            let radius = 3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach) / f;
+            for (ca, cb) in [(pair[0], pair[1]), (pair[1], pair[0])] {
+                let (va, vb) = (&vectors[ca as usize], &vectors[cb as usize]);
+                for mirrored in [false, true] {
+                    if mirrored && !self.mirror_too {
+                        continue;
+                    }
+                    let (rp, rq, rr) = (
+                        self.ray(p, f, mirrored),
+                        self.ray(q, f, mirrored),
+                        self.ray(r, f, mirrored),
+                    );
+                    let Some(rot) = triad(&rp, &rq, va, vb) else {
+                        continue;
+                    };
+                    let predicted = rot.inverse_transform_vector(&rr);
+                    let (Some((cc, _)), _) = zones.nearest_two(vectors, &predicted, radius) else {
+                        continue;
+                    };
+                    if cc == ca || cc == cb {
+                        continue;
+                    }
+                    if let Some(f3) = self.confirm([p, q, r], [ca, cb, cc], f, mirrored, others) {
+                        found.push(f3);
+                    }
+                }
+            }
+        }
+        found
+    }
+
+    /// Refine `f` over the closed triangle and look for a fourth star among `others`.
+    fn confirm(
+        &self,
+        obs: [usize; 3],
+        cat: [u32; 3],
+        f: f64,
+        mirrored: bool,
+        others: &[usize],
+    ) -> Option<f64> {
+        let vectors = self.solver.catalog().vectors();
+        // Focal length from the triangle's longest side (the most precise one).
+        let sides = [(0, 1), (1, 2), (0, 2)];
+        let &(a, b) = sides.iter().max_by(|x, y| {
+            (self.off[obs[x.0]] - self.off[obs[x.1]])
+                .norm()
+                .total_cmp(&(self.off[obs[y.0]] - self.off[obs[y.1]]).norm())
+        })?;
+        let alpha =
+            crate::geometry::angle_between(&vectors[cat[a] as usize], &vectors[cat[b] as usize]);
+        let f3 = focal_for_angle(&self.off[obs[a]], &self.off[obs[b]], alpha).unwrap_or(f);
+        let rays: Vec<Vector3<f64>> = obs.iter().map(|&s| self.ray(s, f3, mirrored)).collect();
+        let refs: Vec<Vector3<f64>> = cat.iter().map(|&c| vectors[c as usize]).collect();
+        let rot = crate::attitude::wahba_svd(&rays, &refs)?;
+        // The triangle itself must fit at this focal length.
+        let tol = 4.0 * std::f64::consts::SQRT_2 * self.sigma / f3;
+        if rays
+            .iter()
+            .zip(&refs)
+            .any(|(o, r)| crate::geometry::angle_between(&(rot * r), o) > tol)
+        {
+            return None;
+        }
+        let longest = (self.off[obs[a]] - self.off[obs[b]]).norm().max(1.0);
+        let needed = CONFIRMING_MATCHES.min(others.len());
+        if needed == 0 {
+            return Some(f3);
+        }
+        let zones = self.solver.catalog().zones();
+        let mut hits = 0;
+        let mut misses = 0;
+        for &l in others {
+            let reach = obs
+                .iter()
+                .map(|&s| (self.off[l] - self.off[s]).norm())
+                .fold(0.0, f64::max);
+            let radius = 3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach / longest) / f3;
+            let predicted = rot.inverse_transform_vector(&self.ray(l, f3, mirrored));
+            match zones.nearest_two(vectors, &predicted, radius) {
+                (Some((c, _)), _) if !cat.contains(&c) => hits += 1,
+                _ => misses += 1,
+            }
+            if hits >= needed {
+                return Some(f3);
+            }
+            // Give up once the needed hits can no longer come from the first few stars.
+            if misses > 4 + hits {
+                return None;
+            }
+        }
+        None
+    }
+}
+
+/// Rotation ICRS → camera taking catalogue `(ca, cb)` onto camera rays `(oa, ob)` (TRIAD,
+/// exact on the first pair).
+fn triad(
+    oa: &Vector3<f64>,
+    ob: &Vector3<f64>,
+    ca: &Vector3<f64>,
+    cb: &Vector3<f64>,
+) -> Option<Rotation3<f64>> {
+    let frame = |a: &Vector3<f64>, b: &Vector3<f64>| -> Option<Matrix3<f64>> {
+        let t2 = a.cross(b);
+        let n = t2.norm();
+        if n < 1e-12 {
+            return None;
+        }
+        let t2 = t2 / n;
+        Some(Matrix3::from_columns(&[*a, t2, a.cross(&t2)]))
+    };
+    let (mo, mc) = (frame(oa, ob)?, frame(ca, cb)?);
+    Some(Rotation3::from_matrix_unchecked(mo * mc.transpose()))
+}
