@@ -27,7 +27,9 @@ use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
 
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
-use crate::identify::{validate_centroids, Identification, IdentifyConfig, Solver, Status};
+use crate::identify::{
+    binomial_tail, validate_centroids, Identification, IdentifyConfig, Solver, Status,
+};
 use crate::pointing::{focal_for_angle, refine_pointing, CameraModel, PointingFit, RefineOptions};
 
 /// Most focal-length hypotheses handed to the fixed-focal identification per frame.
@@ -45,6 +47,12 @@ const MAX_FOCAL_SIGMA: f64 = 5e-4;
 
 /// Largest focal-length error, carried to the field's corner, in units of the centroid noise.
 const FOCAL_LEVER: f64 = 2.0;
+
+/// Largest chance probability of a triangle's confirming hits.
+const CONFIRM_CHANCE: f64 = 1e-3;
+
+/// Catalogue pairs examined for triangle bases before the search gives up (about a second).
+const MAX_BASE_PAIRS: usize = 1_000_000;
 
 /// Brightest stars that may confirm a triangle.
 const CONFIRM_STARS: usize = 24;
@@ -133,6 +141,7 @@ impl Solver {
         let mut search = FocalSearch {
             solver: self,
             off: &off,
+            centre,
             f_range: (f_lo * 0.99, f_hi * 1.01),
             sigma: ladder[0],
             mirror_too: config.allow_mirrored,
@@ -164,7 +173,7 @@ impl Solver {
                     status = Status::Timeout;
                     break 'search;
                 }
-                if search.base_pairs > config.max_pairs_visited {
+                if search.base_pairs > config.max_pairs_visited.min(MAX_BASE_PAIRS) {
                     status = Status::SearchLimit;
                     break 'search;
                 }
@@ -238,23 +247,13 @@ impl Solver {
         height_px: f64,
         f: f64,
         config: &IdentifyConfig,
-    ) -> Result<(Option<(Identification, Camera, PointingFit)>, usize)> {
+    ) -> Result<(Option<Solved>, usize)> {
         let mut camera = Camera::from_focal_length(f, width_px, height_px)?;
         let mut hyps = 0;
         let mut last: Option<(Identification, PointingFit)> = None;
         for _round in 0..3 {
             let id = self.identify(centroids, magnitudes, &camera, config)?;
             hyps += id.hypotheses;
-            if std::env::var("STARID_DEBUG").is_ok() {
-                eprintln!(
-                    "finish: f {} -> {:?} matched {} p {:e} sigma {}",
-                    camera.focal_length_px,
-                    id.status,
-                    id.matched,
-                    id.false_match_probability,
-                    id.centroid_sigma_px
-                );
-            }
             let Some(r) = id.r_icrs_to_cam.filter(|_| id.is_identified()) else {
                 return Ok((last.map(|(id, fit)| (id, camera, fit)), hyps));
             };
@@ -302,9 +301,14 @@ impl Solver {
     }
 }
 
+/// An identification with its refined camera and fit.
+type Solved = (Identification, Camera, PointingFit);
+
 struct FocalSearch<'a> {
     solver: &'a Solver,
     off: &'a [Vector2<f64>],
+    /// Principal point (sensor centre), pixels.
+    centre: Vector2<f64>,
     f_range: (f64, f64),
     sigma: f64,
     mirror_too: bool,
@@ -429,7 +433,7 @@ impl FocalSearch<'_> {
             return Some(f3);
         }
         let zones = self.solver.catalog().zones();
-        let mut hits = 0;
+        let mut hits: Vec<(usize, u32)> = Vec::new();
         let mut misses = 0;
         for &l in others {
             let reach = obs
@@ -439,18 +443,73 @@ impl FocalSearch<'_> {
             let radius = 3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach / longest) / f3;
             let predicted = rot.inverse_transform_vector(&self.ray(l, f3, mirrored));
             match zones.nearest_two(vectors, &predicted, radius) {
-                (Some((c, _)), _) if !cat.contains(&c) => hits += 1,
+                (Some((c, _)), _) if !cat.contains(&c) && hits.iter().all(|h| h.1 != c) => {
+                    hits.push((l, c));
+                }
                 _ => misses += 1,
             }
-            if hits >= needed {
-                return Some(f3);
-            }
             // Give up once the needed hits can no longer come from the first few stars.
-            if misses > 4 + hits {
+            if hits.len() < needed && misses > 4 + hits.len() {
                 return None;
             }
         }
-        None
+        if hits.len() < needed {
+            return None;
+        }
+        // The hits must not be chance: with the catalogue's density around the field, a star
+        // lands within the (largest) radius of some catalogue star with probability p; the
+        // binomial tail of the hits over the stars tried must be small.
+        let boresight = rot.inverse_transform_vector(&Vector3::z());
+        let half_diag = (self.centre.norm() / f3).atan();
+        let mut in_field = 0usize;
+        zones.for_each_in_cone(vectors, &boresight, half_diag, |_, _| in_field += 1);
+        let cone_sr = 2.0 * std::f64::consts::PI * (1.0 - half_diag.cos());
+        let density = in_field.max(1) as f64 / cone_sr;
+        let widest = others
+            .iter()
+            .take(hits.len() + misses)
+            .map(|&l| {
+                let reach = obs
+                    .iter()
+                    .map(|&s| (self.off[l] - self.off[s]).norm())
+                    .fold(0.0, f64::max);
+                3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach / longest) / f3
+            })
+            .fold(0.0, f64::max);
+        let p_chance = (density * std::f64::consts::PI * widest * widest).min(1.0);
+        // A sparse frame (at most two stars beyond the triangle) cannot reach that significance;
+        // there every one of them must hit.
+        let tried = hits.len() + misses;
+        let all_hit = tried <= 2 && misses == 0;
+        if !all_hit && binomial_tail(tried, hits.len(), p_chance) > CONFIRM_CHANCE {
+            return None;
+        }
+        // The focal length from every star found so far (least squares, attitude and f).
+        let (stars, xy): (Vec<Vector3<f64>>, Vec<[f64; 2]>) = obs
+            .iter()
+            .zip(cat)
+            .chain(hits.iter().map(|(l, c)| (l, *c)))
+            .map(|(&o, c)| {
+                let p = self.off[o] + self.centre;
+                (vectors[c as usize], [p.x, p.y])
+            })
+            .unzip();
+        let start = CameraModel {
+            focal_length_px: f3,
+            principal_point_px: [self.centre.x, self.centre.y],
+            k1: 0.0,
+        };
+        let options = RefineOptions {
+            mirrored,
+            max_iterations: 30,
+            ..RefineOptions::default()
+        };
+        match refine_pointing(&stars, &xy, 2.0 * self.centre.x, &rot, &start, &options) {
+            Ok(fit) if fit.converged && fit.rms_px <= 4.0 * self.sigma => {
+                Some(fit.model.focal_length_px)
+            }
+            _ => Some(f3),
+        }
     }
 }
 

@@ -3,3 +3,4 @@ mod identify;
 mod kvector;
 mod pointing;
 mod strategies;
+mod unknown_focal;

@@ -1,0 +1,87 @@
+//! Identification with an unknown focal length: simulated frames with fields of view drawn in
+//! 8°–25°, identified with only that range known.
+
+use rand::{Rng, SeedableRng};
+use starid_core::simulate::{simulate, SimConfig};
+use starid_core::{Camera, ErrorKind, IdentifyConfig, Solver};
+
+use super::strategies::bundled;
+
+#[test]
+fn unknown_fields_of_view_are_identified_with_their_focal_length() {
+    let catalog = bundled();
+    let size = 1024.0;
+    let widest = Camera::from_fov(25f64.to_radians(), size, size).unwrap();
+    let narrowest = Camera::from_fov(8f64.to_radians(), size, size).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &widest).unwrap();
+    let range = (widest.focal_length_px, narrowest.focal_length_px);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+    let (mut frames, mut identified) = (0, 0);
+    for seed in 0..40u64 {
+        let fov: f64 = rng.random_range(8.0..25.0);
+        let camera = Camera::from_fov(fov.to_radians(), size, size).unwrap();
+        let sim = SimConfig {
+            noise_px: 0.2,
+            mirrored: seed % 3 == 0,
+            ..Default::default()
+        };
+        let f = simulate(&catalog, &camera, &sim, seed).unwrap();
+        if f.real_stars() < 4 {
+            continue;
+        }
+        frames += 1;
+        let r = solver
+            .identify_unknown_focal(
+                &f.centroids,
+                None,
+                size,
+                size,
+                range,
+                &IdentifyConfig::default(),
+            )
+            .unwrap();
+        let id = &r.identification;
+        if !id.is_identified() {
+            continue;
+        }
+        identified += 1;
+        assert_eq!(id.mirrored, sim.mirrored, "seed {seed}");
+        for (got, want) in id.catalog_index.iter().zip(&f.catalog_index) {
+            if got.is_some() {
+                assert_eq!(got, want, "seed {seed}: wrong id");
+            }
+        }
+        let est = r.camera.unwrap().focal_length_px;
+        assert!(
+            ((est - camera.focal_length_px) / camera.focal_length_px).abs() < 1e-3,
+            "seed {seed}: focal {est} vs {}",
+            camera.focal_length_px
+        );
+        let fit = r.fit.unwrap();
+        assert!(fit.focal_sigma_px() / est < 5e-4);
+        assert!(id.false_match_probability <= 1e-3);
+    }
+    assert!(identified >= frames - 1, "{identified} of {frames}");
+}
+
+#[test]
+fn unknown_focal_rejects_bad_ranges() {
+    let catalog = bundled();
+    let widest = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let solver = Solver::for_camera(catalog, &widest).unwrap();
+    let xy = [[10.0, 10.0], [100.0, 40.0], [300.0, 200.0], [400.0, 500.0]];
+    let cfg = IdentifyConfig::default();
+    for range in [(0.0, 100.0), (3000.0, 2000.0), (f64::NAN, 3000.0)] {
+        let e = solver
+            .identify_unknown_focal(&xy, None, 512.0, 512.0, range, &cfg)
+            .unwrap_err();
+        assert_eq!(e.kind(), &ErrorKind::InvalidInput);
+    }
+    // A range wider than the index covers is refused, not silently searched in part.
+    let f_wide = Camera::from_fov(30f64.to_radians(), 512.0, 512.0)
+        .unwrap()
+        .focal_length_px;
+    assert!(solver
+        .identify_unknown_focal(&xy, None, 512.0, 512.0, (f_wide, 3000.0), &cfg)
+        .is_err());
+}
