@@ -33,10 +33,21 @@ def test_bad_centroids(xy: object, match: str) -> None:
         ident(xy)
 
 
-@pytest.mark.parametrize("fov", [0.0, -5.0, 180.0, 500.0, float("nan"), None, "wide"])
+@pytest.mark.parametrize("fov", [0.0, -5.0, 180.0, 500.0, float("nan"), "wide"])
 def test_bad_fov(fov: object) -> None:
     with pytest.raises(ValueError, match="fov_deg"):
         ident(GOOD, fov_deg=fov)
+
+
+@pytest.mark.parametrize("rng", [(0.0, 10.0), (20.0, 10.0), (5.0, 200.0), (float("nan"), 10.0), (5.0,), "wide"])
+def test_bad_fov_range(rng: object) -> None:
+    with pytest.raises(ValueError, match="fov_range_deg"):
+        starid.identify(GOOD, image_size=(512, 512), fov_range_deg=rng)
+
+
+def test_fov_and_fov_range_together() -> None:
+    with pytest.raises(ValueError, match="not both"):
+        starid.identify(GOOD, fov_deg=12.0, image_size=(512, 512), fov_range_deg=(8.0, 20.0))
 
 
 @pytest.mark.parametrize("size", [None, (0, 512), (512,), "big", (float("inf"), 3)])

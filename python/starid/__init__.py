@@ -12,15 +12,16 @@ The heavy lifting (k-vector pair index, Pyramid search, verification, attitude) 
 the Rust core; see ARCHITECTURE.md.
 """
 
-from . import guide
+from . import guide, pointing
 from ._catalog import DEFAULT_CATALOG_PATH, Catalog
 from ._errors import CatalogError, StaridError
-from ._identify import Frame, Identification, identify, identify_many, simulate
+from ._identify import DEFAULT_FOV_RANGE_DEG, Frame, Identification, identify, identify_many, simulate
 from ._starid import __version__
 from .starlist import read_star_list
 
 __all__ = [
     "DEFAULT_CATALOG_PATH",
+    "DEFAULT_FOV_RANGE_DEG",
     "Catalog",
     "CatalogError",
     "Frame",
@@ -30,6 +31,7 @@ __all__ = [
     "guide",
     "identify",
     "identify_many",
+    "pointing",
     "read_star_list",
     "simulate",
 ]

@@ -14,7 +14,7 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import Catalog, resolve_catalog
 
-__all__ = ["Frame", "Identification", "identify", "identify_many", "simulate"]
+__all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "identify_many", "simulate"]
 
 CatalogLike = Union[Catalog, str, "os.PathLike[str]", None]
 
@@ -52,7 +52,10 @@ class Identification:
     time_s : float
         Time spent identifying (inside the Rust core; excludes Python overhead).
     fov_deg, focal_px : float
-        The camera's field of view across the width and its focal length in pixels.
+        The camera's field of view across the width and its focal length in pixels: the given
+        ones, or, when the field of view was unknown, the estimates (NaN when not ``ok``).
+    focal_sigma_px : float
+        1 sigma of the estimated focal length (NaN when the field of view was given).
     """
 
     ids: npt.NDArray[np.int64]
@@ -73,6 +76,7 @@ class Identification:
     time_s: float
     fov_deg: float
     focal_px: float
+    focal_sigma_px: float
 
     @classmethod
     def _from_native(cls, d: dict[str, Any]) -> "Identification":
@@ -108,7 +112,9 @@ class Identification:
         return (
             f"Identification(ok=True, {self.n_matched}/{n} stars identified, "
             f"ra={self.ra_deg:.5f} deg, dec={self.dec_deg:+.5f} deg, roll={self.roll_deg:.4f} deg, "
-            f"mirrored={self.mirrored}, rms residual {rms:.2f} arcsec, "
+            f"mirrored={self.mirrored}, "
+            + (f"fov={self.fov_deg:.4f} deg (estimated), " if not math.isnan(self.focal_sigma_px) else "")
+            + f"rms residual {rms:.2f} arcsec, "
             f"P(false match) <= {self.false_match_probability:.1e}, time {self.time_s * 1e3:.3f} ms)"
         )
 
@@ -148,12 +154,23 @@ def _image_size(image_size: Any) -> tuple[float, float]:
     return w, h
 
 
+#: Field-of-view range searched by :func:`identify` when ``fov_deg`` is not given.
+DEFAULT_FOV_RANGE_DEG = (8.0, 25.0)
+
+
+def _fov_range(fov_range_deg: Any) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in fov_range_deg)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"fov_range_deg must be a pair (lo, hi) in degrees, got {fov_range_deg!r}") from e
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi < 179.0):
+        raise ValueError(f"fov_range_deg must satisfy 0 < lo <= hi < 179 degrees, got {fov_range_deg!r}")
+    return lo, hi
+
+
 def _fov(fov_deg: Any) -> float:
     if fov_deg is None:
-        raise ValueError(
-            "fov_deg (the full field of view across the image width, degrees) is required: "
-            "identification with an unknown field of view is not available yet"
-        )
+        raise ValueError("fov_deg (the full field of view across the image width, degrees) is required")
     try:
         fov = float(fov_deg)
     except (TypeError, ValueError) as e:
@@ -217,6 +234,7 @@ def identify(
     fov_deg: Optional[float] = None,
     image_size: Optional[tuple[float, float]] = None,
     *,
+    fov_range_deg: Optional[tuple[float, float]] = None,
     magnitudes: Optional[npt.ArrayLike] = None,
     centroid_sigma_px: Optional[float] = None,
     max_false_match_prob: float = 1e-3,
@@ -234,10 +252,15 @@ def identify(
         Pixel centroids: x to the right, y down, origin at the sensor's top-left corner.
     catalog : Catalog, path or None
         The star catalogue; None uses the bundled Hipparcos catalogue (Hp <= 6.5).
-    fov_deg : float
-        Full field of view across the image width, degrees.
+    fov_deg : float, optional
+        Full field of view across the image width, degrees. When omitted, the field of view is
+        unknown: it is searched in ``fov_range_deg`` and estimated (``focal_px``, ``fov_deg``
+        and ``focal_sigma_px`` on the result).
     image_size : (width_px, height_px)
         Sensor size; the optical axis meets it at ``(width/2, height/2)``.
+    fov_range_deg : (lo, hi), optional
+        Range of the unknown field of view (default :data:`DEFAULT_FOV_RANGE_DEG`, 8 to 25
+        degrees); only without ``fov_deg``. The pair index is built for the widest field.
     magnitudes : array_like, shape (N,), optional
         Instrument magnitude of each centroid (smaller is brighter); the search starts from
         the brightest stars.
@@ -277,15 +300,27 @@ def identify(
     >>> res = starid.identify(frame.xy, fov_deg=12.0, image_size=(512, 512))
     >>> res.ok, bool((res.ids == frame.true_ids).all())
     (True, True)
+
+    With the field of view unknown (searched in 8 to 25 degrees):
+
+    >>> frame = starid.simulate(fov_deg=17.3, image_size=(1024, 1024), seed=8, noise_px=0.2)
+    >>> res = starid.identify(frame.xy, image_size=(1024, 1024))
+    >>> res.ok, round(res.fov_deg, 2)
+    (True, 17.3)
     """
     cat = resolve_catalog(catalog)
     w, h = _image_size(image_size)
-    fov = _fov(fov_deg)
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
     cfg = _config(
         centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored, timeout_s
     )
+    if fov_deg is None:
+        lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
+        return Identification._from_native(_starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg))
+    if fov_range_deg is not None:
+        raise ValueError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
+    fov = _fov(fov_deg)
     return Identification._from_native(_starid.identify(cat._native, a, m, w, h, fov, cfg))
 
 

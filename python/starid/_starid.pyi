@@ -16,8 +16,14 @@ __all__ = [
     "guide_metrics",
     "guide_nearest_neighbours",
     "guide_select",
+    "boresight_from_distances",
+    "choose_stars",
+    "fit_pointing",
     "identify",
     "identify_many",
+    "identify_unknown_fov",
+    "monte_carlo_distances",
+    "predicted_distance_covariance",
     "simulate",
 ]
 
@@ -134,3 +140,44 @@ def guide_field_counts(
     catalog: Catalog, fov_deg: float, trials: int, seed: int, field: str
 ) -> npt.NDArray[np.uint64]: ...
 def guide_nearest_neighbours(catalog: Catalog) -> npt.NDArray[np.float64]: ...
+def boresight_from_distances(
+    radec_deg: npt.NDArray[np.float64],
+    distances_px: npt.NDArray[np.float64],
+    focal_px: Optional[float] = None,
+) -> list[dict[str, Any]]: ...
+def fit_pointing(
+    radec_deg: npt.NDArray[np.float64],
+    xy: npt.NDArray[np.float64],
+    width_px: float,
+    height_px: float,
+    focal_px: Optional[float],
+    fit_focal: bool,
+    fit_principal_point: bool,
+    fit_k1: bool,
+    mirrored: bool,
+    sigma_px: Optional[float],
+) -> dict[str, Any]: ...
+def predicted_distance_covariance(
+    offsets_px: npt.NDArray[np.float64], focal_px: float, sigma_px: float, fit_focal: bool
+) -> Optional[npt.NDArray[np.float64]]: ...
+def choose_stars(
+    offsets_px: npt.NDArray[np.float64], focal_px: float, count: int, fit_focal: bool
+) -> tuple[list[int], float]: ...
+def monte_carlo_distances(
+    offsets_px: npt.NDArray[np.float64],
+    focal_px: float,
+    sigma_px: float,
+    fit_focal: bool,
+    trials: int,
+    seed: int,
+) -> dict[str, Any]: ...
+def identify_unknown_fov(
+    catalog: Catalog,
+    xy: npt.NDArray[np.float64],
+    magnitudes: Optional[npt.NDArray[np.float64]],
+    width_px: float,
+    height_px: float,
+    fov_lo_deg: float,
+    fov_hi_deg: float,
+    config: IdentifyConfig,
+) -> dict[str, Any]: ...

@@ -62,6 +62,24 @@ def _parser() -> argparse.ArgumentParser:
     info.add_argument("--fov-deg", type=float, default=12.0)
     info.add_argument("--size", type=_size, default=(512.0, 512.0))
 
+    bore = sub.add_parser(
+        "boresight",
+        help="the boresight (and focal length) from three or more stars' RA/Dec and image distances",
+        description="Each star's image lies a distance a from the principal point, so the star is atan(a/f) "
+        "from the boresight. Prints every solution, best supported first.",
+    )
+    bore.add_argument(
+        "--star", nargs=3, type=float, action="append", required=True, metavar=("RA_DEG", "DEC_DEG", "DIST_PX"),
+        help="a star and the distance of its image from the principal point (repeat, at least 3 times)",
+    )
+    bore.add_argument("--focal-px", type=float, help="focal length in pixels (default: estimated)")
+    bore.add_argument("--fov-deg", type=float, help="field of view across --width, instead of --focal-px")
+    bore.add_argument("--width", type=float, help="sensor width in pixels, with --fov-deg or --fov-range-deg")
+    bore.add_argument("--fov-range-deg", type=float, nargs=2, metavar=("LO", "HI"),
+                      help="with the focal length unknown: keep solutions whose field (across --width) is in this range")
+    bore.add_argument("--sigma-px", type=float, default=0.1, help="centroid noise for the predicted precision")
+    bore.add_argument("--json", action="store_true")
+
     guide = sub.add_parser("guide", help="guide-star catalogues: select, compare with the paper, plot")
     gsub = guide.add_subparsers(dest="guide_command", required=True)
     cmp_ = gsub.add_parser("compare", help="rectangle grid vs QTM vs weighted QTM, beside the paper's table")
@@ -205,6 +223,49 @@ def _catalog_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _boresight(args: argparse.Namespace) -> int:
+    from . import pointing
+
+    focal = args.focal_px
+    if args.fov_deg is not None:
+        if focal is not None or args.width is None:
+            raise ValueError("give --focal-px, or --fov-deg with --width")
+        focal = pointing.focal_from_fov(args.fov_deg, args.width)
+    focal_range = None
+    if args.fov_range_deg is not None:
+        if focal is not None or args.width is None:
+            raise ValueError("--fov-range-deg needs --width and no --focal-px / --fov-deg")
+        lo, hi = sorted(args.fov_range_deg)
+        focal_range = (pointing.focal_from_fov(hi, args.width), pointing.focal_from_fov(lo, args.width))
+    stars = np.array(args.star, dtype=float)
+    sols = pointing.boresight_from_distances(stars[:, :2], stars[:, 2], focal_px=focal, focal_range_px=focal_range)
+    if not sols:
+        print("no solution in the given field-of-view range", file=sys.stderr)
+        return 1
+    if args.json:
+        out = [
+            {
+                "ra_deg": s.ra_deg, "dec_deg": s.dec_deg, "focal_px": s.focal_px, "rms_px": s.rms_px,
+                "best": s.best, "ambiguous": s.ambiguous, "degenerate": s.degenerate,
+                "boresight_sigma_arcsec": None if s.degenerate else s.boresight_sigma_arcsec(args.sigma_px),
+            }
+            for s in sols
+        ]
+        json.dump(out, sys.stdout, indent=2)
+        print()
+        return 0
+    print(f"{len(sols)} solution(s), best supported first ({'focal length given' if focal else 'focal length estimated'}):")
+    for k, s in enumerate(sols):
+        flags = [n for n, v in (("best", s.best), ("ambiguous", s.ambiguous), ("degenerate", s.degenerate)) if v]
+        sigma = s.boresight_sigma_arcsec(args.sigma_px)
+        print(
+            f"  {k + 1}. ra {s.ra_deg:.6f} deg, dec {s.dec_deg:+.6f} deg, focal {s.focal_px:.3f} px, "
+            f"rms misfit {s.rms_px:.3g} px, 1-sigma {sigma:.3g} arcsec at {args.sigma_px:g} px"
+            + (f"  [{', '.join(flags)}]" if flags else "")
+        )
+    return 0
+
+
 def _guide(args: argparse.Namespace) -> int:
     from . import guide
 
@@ -265,6 +326,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _simulate(args)
         if args.command == "guide":
             return _guide(args)
+        if args.command == "boresight":
+            return _boresight(args)
         return _catalog_info(args)
     except BrokenPipeError:
         # The reader went away (e.g. `starid ... | head`): not an error of ours.

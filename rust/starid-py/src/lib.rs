@@ -11,6 +11,7 @@ mod convert;
 mod errors;
 mod guide;
 mod outcome;
+mod pointing;
 
 use std::sync::Arc;
 
@@ -35,8 +36,8 @@ where
 /// Settings of identification (see `starid.identify`).
 #[pyclass(frozen, name = "IdentifyConfig", module = "starid._starid")]
 #[derive(Clone)]
-struct PyIdentifyConfig {
-    inner: IdentifyConfig,
+pub struct PyIdentifyConfig {
+    pub inner: IdentifyConfig,
 }
 
 #[pymethods]
@@ -274,6 +275,15 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(guide::guide_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_nearest_neighbours, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_field_counts, m)?)?;
+    m.add_function(wrap_pyfunction!(pointing::boresight_from_distances, m)?)?;
+    m.add_function(wrap_pyfunction!(pointing::fit_pointing, m)?)?;
+    m.add_function(wrap_pyfunction!(
+        pointing::predicted_distance_covariance,
+        m
+    )?)?;
+    m.add_function(wrap_pyfunction!(pointing::choose_stars, m)?)?;
+    m.add_function(wrap_pyfunction!(pointing::monte_carlo_distances, m)?)?;
+    m.add_function(wrap_pyfunction!(pointing::identify_unknown_fov, m)?)?;
     m.add("StaridError", m.py().get_type::<StaridError>())?;
     m.add("CatalogError", m.py().get_type::<CatalogError>())?;
     Ok(())

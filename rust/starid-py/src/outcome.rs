@@ -9,6 +9,27 @@ use starid_core::{geometry, Camera, Catalog, Identification, SimFrame};
 
 const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
+/// `rotation_matrix` (3×3) and `quaternion` (`[w, x, y, z]`, w ≥ 0) of a rotation.
+pub fn put_rotation(d: &Bound<'_, PyDict>, r: &Rotation3<f64>) -> PyResult<()> {
+    let py = d.py();
+    let m = r.matrix();
+    let flat: Vec<f64> = (0..3)
+        .flat_map(|i| (0..3).map(move |j| m[(i, j)]))
+        .collect();
+    d.set_item(
+        "rotation_matrix",
+        Array2::from_shape_vec((3, 3), flat)
+            .expect("3x3")
+            .into_pyarray(py),
+    )?;
+    let q = UnitQuaternion::from_rotation_matrix(r);
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    d.set_item(
+        "quaternion",
+        vec![s * q.w, s * q.i, s * q.j, s * q.k].into_pyarray(py),
+    )
+}
+
 fn put_attitude(d: &Bound<'_, PyDict>, r: Option<&Rotation3<f64>>) -> PyResult<()> {
     let py = d.py();
     match r {
@@ -17,22 +38,7 @@ fn put_attitude(d: &Bound<'_, PyDict>, r: Option<&Rotation3<f64>>) -> PyResult<(
             d.set_item("ra_deg", ra.to_degrees())?;
             d.set_item("dec_deg", dec.to_degrees())?;
             d.set_item("roll_deg", roll.to_degrees())?;
-            let m = r.matrix();
-            let flat: Vec<f64> = (0..3)
-                .flat_map(|i| (0..3).map(move |j| m[(i, j)]))
-                .collect();
-            d.set_item(
-                "rotation_matrix",
-                Array2::from_shape_vec((3, 3), flat)
-                    .expect("3x3")
-                    .into_pyarray(py),
-            )?;
-            let q = UnitQuaternion::from_rotation_matrix(r);
-            let s = if q.w < 0.0 { -1.0 } else { 1.0 };
-            d.set_item(
-                "quaternion",
-                vec![s * q.w, s * q.i, s * q.j, s * q.k].into_pyarray(py),
-            )?;
+            put_rotation(d, r)?;
         }
         None => {
             d.set_item("ra_deg", f64::NAN)?;
@@ -88,6 +94,7 @@ pub fn identification<'py>(
     d.set_item("time_s", id.elapsed.as_secs_f64())?;
     d.set_item("focal_px", camera.focal_length_px)?;
     d.set_item("fov_deg", camera.fov_rad().to_degrees())?;
+    d.set_item("focal_sigma_px", f64::NAN)?;
     Ok(d)
 }
 

@@ -1,0 +1,188 @@
+"""starid.pointing and identification with an unknown field of view."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import starid
+import starid.pointing as sp
+from starid.cli import main
+
+ARCSEC = math.radians(1 / 3600)
+F12 = sp.focal_from_fov(12.0, 512)
+
+
+def _unit(ra: np.ndarray, dec: np.ndarray) -> np.ndarray:
+    ra, dec = np.radians(ra), np.radians(dec)
+    return np.stack([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], axis=-1)
+
+
+def _angle(ra1: float, dec1: float, ra2: float, dec2: float) -> float:
+    return float(np.arccos(np.clip(_unit(np.array(ra1), np.array(dec1)) @ _unit(np.array(ra2), np.array(dec2)), -1, 1)))
+
+
+def _sky(offsets: np.ndarray, f: float, frame: starid.Frame) -> np.ndarray:
+    """RA/Dec of the points imaged at `offsets` (from the centre) by the camera of `frame`."""
+    r = frame.rotation_matrix
+    rays = np.column_stack([offsets, np.full(len(offsets), f)])
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    v = rays @ r  # R^T applied to each ray
+    return np.column_stack([np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360, np.degrees(np.arcsin(v[:, 2]))])
+
+
+@pytest.fixture(scope="module")
+def frame() -> starid.Frame:
+    return starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=21)
+
+
+def test_exact_distances_give_the_boresight(frame: starid.Frame) -> None:
+    off = np.array([[230.0, 20.0], [-100.0, 200.0], [-120.0, -190.0]])
+    radec = _sky(off, F12, frame)
+    a = np.hypot(off[:, 0], off[:, 1])
+    sols = sp.boresight_from_distances(radec, a, focal_px=F12)
+    best = sols[0]
+    assert best.best and not best.ambiguous and not best.degenerate
+    assert _angle(best.ra_deg, best.dec_deg, frame.ra_deg, frame.dec_deg) < 0.01 * ARCSEC
+    unknown = sp.boresight_from_distances(radec, a)
+    hits = [s for s in unknown if _angle(s.ra_deg, s.dec_deg, frame.ra_deg, frame.dec_deg) < 0.01 * ARCSEC]
+    assert hits and abs(hits[0].focal_px / F12 - 1) < 1e-9
+    # A plausible focal range leaves the true solution alone.
+    ranged = sp.boresight_from_distances(radec, a, focal_range_px=(F12 * 0.5, F12 * 1.5))
+    assert len(ranged) == 1 and not ranged[0].ambiguous
+    assert abs(ranged[0].focal_px / F12 - 1) < 1e-9
+
+
+def test_geometry_flags(frame: starid.Frame) -> None:
+    collinear = np.array([[-200.0, 60.0], [10.0, 60.0], [190.0, 60.0]])
+    sols = sp.boresight_from_distances(_sky(collinear, F12, frame), np.hypot(*collinear.T), focal_px=F12)
+    assert len(sols) >= 2 and sols[0].ambiguous and sols[1].ambiguous
+    through = np.array([[-200.0, 0.0], [30.0, 0.0], [180.0, 0.0]])
+    sols = sp.boresight_from_distances(_sky(through, F12, frame), np.abs(through[:, 0]), focal_px=F12)
+    assert sols[0].degenerate and sols[0].boresight_sigma_arcsec(0.1) == math.inf
+    assert sp.predicted_covariance(through + 256, (512, 512), focal_px=F12)["covariance"] is None
+
+
+def test_precision_and_star_choice() -> None:
+    spread = np.array([[486.0, 276.0], [141.0, 455.0], [136.0, 61.0]])
+    clustered = np.array([[356.0, 356.0], [386.0, 361.0], [366.0, 384.0]])
+    collinear = np.array([[60.0, 300.0], [250.0, 300.0], [470.0, 300.0]])
+    s = lambda xy, ff: sp.predicted_covariance(xy, (512, 512), fov_deg=12, fit_focal=ff)["boresight_sigma_arcsec"]  # noqa: E731
+    for fit_focal in (False, True):
+        assert s(spread, fit_focal) < s(clustered, fit_focal)
+        assert s(spread, fit_focal) < s(collinear, fit_focal)
+    frame_xy = np.vstack([clustered, spread, [[300.0, 300.0]]])
+    idx, sigma = sp.choose_stars(frame_xy, (512, 512), fov_deg=12)
+    assert idx == [3, 4, 5] and sigma == pytest.approx(s(spread, False))
+    idx4, sigma4 = sp.choose_stars(frame_xy, (512, 512), 4, fov_deg=12)
+    assert len(idx4) == 4 and sigma4 < sigma
+
+
+@pytest.mark.parametrize("fit_focal", [False, True])
+def test_monte_carlo_matches_prediction(fit_focal: bool) -> None:
+    """0.1 px on a 12 deg / 512 px frame: scatter within 10 % of the predicted covariance."""
+    mc = sp.monte_carlo([[486, 276], [141, 455], [136, 61]], (512, 512), fov_deg=12, sigma_px=0.1,
+                        fit_focal=fit_focal, trials=2000, seed=3)
+    assert mc["outliers"] == 0
+    assert abs(mc["ratio"] - 1) < 0.1
+
+
+@pytest.mark.parametrize("wrong", [0.6, 1.4])
+def test_fit_pointing_converges_from_a_40_percent_fov_error(bundled: starid.Catalog, wrong: float) -> None:
+    frame = starid.simulate(bundled, 12.0, (512, 512), seed=9)
+    real = frame.true_ids >= 0
+    rows = [int(np.flatnonzero(bundled.ids == i)[0]) for i in frame.true_ids[real]]
+    radec = np.column_stack([bundled.ra_deg[rows], bundled.dec_deg[rows]])
+    fit = sp.fit_pointing(radec, frame.xy[real], (512, 512), fov_deg=12.0 * wrong)
+    assert fit.converged
+    assert abs(fit.focal_px / F12 - 1) < 1e-9
+    assert _angle(fit.ra_deg, fit.dec_deg, frame.ra_deg, frame.dec_deg) < 1e-6 * ARCSEC
+    assert fit.parameters == ["rot_x", "rot_y", "rot_z", "focal_px"]
+
+
+def test_refine_fits_principal_point_and_distortion(bundled: starid.Catalog) -> None:
+    """A frame made with a shifted principal point and barrel distortion is refined back."""
+    frame = starid.simulate(bundled, 14.0, (1024, 1024), seed=17, noise_px=0.0)
+    f = sp.focal_from_fov(14.0, 1024)
+    cx, cy, k1 = 518.0, 509.0, -0.05
+    u = (frame.xy - 512.0) / f
+    g = 1 + k1 * (u**2).sum(axis=1, keepdims=True)
+    xy = np.array([cx, cy]) + f * u * g
+    res = starid.identify(frame.xy, bundled, fov_deg=14.0, image_size=(1024, 1024))
+    assert res.ok
+    fit = sp.refine(res, xy, bundled, (1024, 1024), fit_principal_point=True, fit_k1=True)
+    assert fit.converged
+    assert fit.principal_point_px == pytest.approx((cx, cy), abs=1e-6)
+    assert fit.k1 == pytest.approx(k1, abs=1e-8)
+    assert fit.focal_px == pytest.approx(f, rel=1e-9)
+    assert fit.covariance is not None and fit.covariance.shape == (7, 7)
+
+
+def test_unknown_fov_identification(bundled: starid.Catalog) -> None:
+    rng = np.random.default_rng(4)
+    wrong = tried = ok = 0
+    for seed in range(20):
+        fov = float(rng.uniform(8, 25))
+        frame = starid.simulate(bundled, fov, (1024, 1024), seed=seed, noise_px=0.2, mirrored=seed % 2 == 1)
+        if frame.n_real < 4:
+            continue
+        tried += 1
+        res = starid.identify(frame.xy, bundled, image_size=(1024, 1024), fov_range_deg=(8.0, 25.0))
+        if not res.ok:
+            continue
+        ok += 1
+        wrong += int(((res.ids >= 0) & (res.ids != frame.true_ids)).sum())
+        assert res.mirrored == frame.mirrored
+        assert abs(res.focal_px / sp.focal_from_fov(fov, 1024) - 1) < 1e-3
+        assert res.focal_sigma_px > 0
+    assert wrong == 0
+    assert ok >= tried - 1
+
+
+@given(st.floats(0.0, 360.0), st.floats(-80.0, 80.0), st.floats(0.0, 360.0))
+def test_exact_three_star_problem_property(ra: float, dec: float, roll: float) -> None:
+    frame = starid.simulate(fov_deg=12.0, image_size=(512, 512), attitude_deg=(ra, dec, roll), seed=1)
+    off = np.array([[220.0, 40.0], [-90.0, 210.0], [-140.0, -170.0]])
+    sols = sp.boresight_from_distances(_sky(off, F12, frame), np.hypot(*off.T), focal_px=F12)
+    assert _angle(sols[0].ra_deg, sols[0].dec_deg, ra, dec) < 0.01 * ARCSEC
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda: sp.boresight_from_distances([[0, 0], [1, 1]], [1, 2], 100.0), "at least 3"),
+        (lambda: sp.boresight_from_distances([[0, 0], [1, 1], [2, 0]], [1, 2], 100.0), "distances"),
+        (lambda: sp.boresight_from_distances([[0, 0], [1, 1], [2, 0]], [1, float("nan"), 2], 100.0), "distance"),
+        (lambda: sp.boresight_from_distances([[0, 0], [1, 1], [2, 0]], [1, 2, 3], -5.0), "focal"),
+        (lambda: sp.boresight_from_distances([[0, 0], [0, 0], [2, 0]], [1, 2, 3], 100.0), "same direction"),
+        (lambda: sp.boresight_from_distances([[0, 95], [1, 1], [2, 0]], [1, 2, 3], 100.0), "declination"),
+        (lambda: sp.boresight_from_distances([[0, 0, 0]], [1], 100.0), "shape"),
+        (lambda: sp.fit_pointing([[0, 0], [1, 1], [2, 0]], [[1, 1], [2, 2]], (512, 512), fov_deg=10), "image positions"),
+        (lambda: sp.fit_pointing([[0, 0], [1, 1], [2, 0]], [[1, 1], [2, 2], [3, 9]], (512, 512)), "focal"),
+        (lambda: sp.fit_pointing([[0, 0], [1, 1], [2, 0]], [[1, 1], [2, 2], [3, 9]], (512, 512), fit_focal=False), "given"),
+        (lambda: sp.choose_stars([[1, 1], [2, 2], [3, 3]], (512, 512), 2, fov_deg=10), "3"),
+        (lambda: sp.predicted_covariance([[1, 1], [2, 2], [3, 3]], (512, 512)), "focal_px or fov_deg"),
+        (lambda: sp.monte_carlo([[1, 1], [2, 2], [3, 3]], (512, 512), fov_deg=10, trials=1), "trials"),
+    ],
+)
+def test_bad_input(call, message: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_cli_boresight(capsys) -> None:  # type: ignore[no-untyped-def]
+    stars = ["--star", "83", "-1", "67.23", "--star", "86.5", "2", "142.72", "--star", "80.5", "3", "166.21"]
+    assert main(["boresight", *stars, "--fov-deg", "12", "--width", "512"]) == 0
+    out = capsys.readouterr().out
+    assert "ra 83.4999" in out and "dec +0.4999" in out and "[best]" in out
+    assert main(["boresight", *stars, "--width", "512", "--fov-range-deg", "8", "20", "--json"]) == 0
+    import json
+
+    sols = json.loads(capsys.readouterr().out)
+    assert len(sols) == 1 and abs(sols[0]["focal_px"] - F12) < 0.1
+    assert main(["boresight", *stars[:8]]) == 2
+    assert "at least 3" in capsys.readouterr().err
