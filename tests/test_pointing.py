@@ -23,7 +23,8 @@ def _unit(ra: np.ndarray, dec: np.ndarray) -> np.ndarray:
 
 
 def _angle(ra1: float, dec1: float, ra2: float, dec2: float) -> float:
-    return float(np.arccos(np.clip(_unit(np.array(ra1), np.array(dec1)) @ _unit(np.array(ra2), np.array(dec2)), -1, 1)))
+    a, b = _unit(np.array(ra1), np.array(dec1)), _unit(np.array(ra2), np.array(dec2))
+    return float(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))  # accurate at tiny angles
 
 
 def _sky(offsets: np.ndarray, f: float, frame: starid.Frame) -> np.ndarray:
@@ -186,3 +187,12 @@ def test_cli_boresight(capsys) -> None:  # type: ignore[no-untyped-def]
     assert len(sols) == 1 and abs(sols[0]["focal_px"] - F12) < 0.1
     assert main(["boresight", *stars[:8]]) == 2
     assert "at least 3" in capsys.readouterr().err
+
+
+def test_cli_identify_with_unknown_fov(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    frame_file = tmp_path / "f.csv"
+    assert main(["simulate", str(frame_file), "--fov-deg", "15", "--size", "1024x1024", "--seed", "3"]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(frame_file), "--size", "1024x1024", "--fov-range-deg", "10", "20"]) == 0
+    out = capsys.readouterr().out
+    assert "field of view (estimated): 14.99" in out or "field of view (estimated): 15.00" in out

@@ -35,7 +35,9 @@ def _parser() -> argparse.ArgumentParser:
     ident = sub.add_parser("identify", help="identify the stars of centroid files")
     ident.add_argument("files", nargs="*", type=Path, help="star lists: CSV or text, columns label,x,y[,mag] or x,y")
     ident.add_argument("--example", action="store_true", help="identify the bundled example frame (12 deg, 512x512)")
-    ident.add_argument("--fov-deg", type=float, help="full field of view across the image width, degrees")
+    ident.add_argument("--fov-deg", type=float, help="full field of view across the image width, degrees (omit if unknown)")
+    ident.add_argument("--fov-range-deg", type=float, nargs=2, metavar=("LO", "HI"),
+                       help="range searched when the field of view is unknown (default 8 25)")
     ident.add_argument("--size", type=_size, help="sensor size WIDTHxHEIGHT in pixels, e.g. 512x512")
     ident.add_argument("--catalog", type=Path, help="catalogue file (CSV/TSV/text/.mat); default: bundled Hipparcos")
     ident.add_argument("--sigma-px", type=float, help="centroid noise, 1 sigma in pixels (default: adaptive)")
@@ -128,9 +130,10 @@ def _identify(args: argparse.Namespace) -> int:
     if not files:
         print("starid identify: give star-list files or --example", file=sys.stderr)
         return 2
-    if fov is None or size is None:
-        print("starid identify: --fov-deg and --size are required", file=sys.stderr)
+    if size is None:
+        print("starid identify: --size is required", file=sys.stderr)
         return 2
+    fov_range = None if args.fov_range_deg is None else tuple(sorted(args.fov_range_deg))
     catalog = resolve_catalog(args.catalog)
     results: list[dict[str, Any]] = []
     failures = 0
@@ -144,6 +147,7 @@ def _identify(args: argparse.Namespace) -> int:
             catalog=catalog,
             fov_deg=fov,
             image_size=size,
+            fov_range_deg=fov_range,
             magnitudes=mags,
             centroid_sigma_px=args.sigma_px,
             max_false_match_prob=args.max_false_prob,
@@ -166,6 +170,12 @@ def _identify(args: argparse.Namespace) -> int:
                     f"mirrored {res.mirrored}\nquaternion [w, x, y, z] (ICRS -> camera): {q}\n"
                     f"identified {res.n_matched}/{len(res.ids)}, P(false match) <= {res.false_match_probability:.1e}, "
                     f"noise {res.centroid_sigma_px:.2f} px"
+                    + (
+                        f"\nfield of view (estimated): {res.fov_deg:.5f} deg, focal length {res.focal_px:.3f} "
+                        f"+- {res.focal_sigma_px:.3f} px"
+                        if fov is None
+                        else ""
+                    )
                 )
             else:
                 print(f"not identified ({res.status})")

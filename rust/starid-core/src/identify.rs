@@ -851,8 +851,12 @@ impl Search<'_> {
     }
 }
 
-/// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as close
-/// (within two noise σ of the first): an ambiguous match is no match.
+/// Log-likelihood ratio the nearest catalogue star must win by over the second nearest for a
+/// match to count (ln 1000): an unresolved double is left unmatched rather than guessed.
+const AMBIGUITY_LOG_ODDS: f64 = 6.907755278982137;
+
+/// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as likely
+/// (see [`AMBIGUITY_LOG_ODDS`]): an ambiguous match is no match.
 fn unambiguous_nearest(
     zones: &crate::sky::ZoneIndex,
     cat: &[Vector3<f64>],
@@ -865,7 +869,9 @@ fn unambiguous_nearest(
     let d1 = crate::geometry::angle_between(w, &cat[star as usize]);
     if let Some((s2, _)) = second {
         let d2 = crate::geometry::angle_between(w, &cat[s2 as usize]);
-        if d2 < d1 + 2.0 * sigma_rad {
+        // Decisive only when the nearer star is AMBIGUITY_LOG_ODDS times likelier under
+        // Gaussian noise: (d2² − d1²) / 2σ² ≥ ln(odds).
+        if d2 * d2 - d1 * d1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
             return None;
         }
     }
