@@ -39,6 +39,13 @@ pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     a.cross(b).norm().atan2(a.dot(b))
 }
 
+/// Angle in radians of the rotation taking `a` to `b`, accurate for nearly equal rotations
+/// (where an arccos of the trace loses half the digits or returns NaN).
+pub fn rotation_angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&(a.inverse() * b));
+    2.0 * q.imag().norm().atan2(q.w.abs())
+}
+
 /// A pinhole camera: sensor size and focal length in pixels, principal point at the centre.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {

@@ -40,7 +40,8 @@
 //! let r = id.r_icrs_to_cam.unwrap();
 //! let z = nalgebra::Vector3::z();
 //! let boresight_error = r.inverse_transform_vector(&z).angle(&frame.r_icrs_to_cam.inverse_transform_vector(&z));
-//! assert!(boresight_error < 1e-4 && r.angle_to(&frame.r_icrs_to_cam) < 1e-3);
+//! let attitude_error = starid_core::geometry::rotation_angle_between(&r, &frame.r_icrs_to_cam);
+//! assert!(boresight_error < 1e-4 && attitude_error < 1e-3);
 //! assert!(id.false_match_probability < 1e-6);
 //! ```
 //!

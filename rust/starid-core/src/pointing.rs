@@ -1311,7 +1311,7 @@ mod tests {
         assert!((fit.model.focal_length_px - f).abs() < 1e-6 * f);
         assert!((fit.model.k1 - k1).abs() < 1e-6);
         assert!((fit.model.principal_point_px[0] - 515.0).abs() < 1e-6);
-        assert!(fit.r_icrs_to_cam.angle_to(&r) < 1e-9);
+        assert!(crate::geometry::rotation_angle_between(&fit.r_icrs_to_cam, &r) < 1e-9);
         let _ = radec_to_unit(0.0, 0.0);
     }
 }

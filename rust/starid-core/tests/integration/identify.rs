@@ -86,7 +86,7 @@ proptest! {
         prop_assert!(r.is_identified());
         prop_assert_eq!(r.mirrored, mirrored);
         prop_assert_eq!(wrong(&r.catalog_index, &f), 0);
-        prop_assert!(r.r_icrs_to_cam.unwrap().angle_to(&f.r_icrs_to_cam) < 2e-3);
+        prop_assert!(starid_core::geometry::rotation_angle_between(&r.r_icrs_to_cam.unwrap(), &f.r_icrs_to_cam) < 2e-3);
         prop_assert!(r.false_match_probability <= 1e-3);
     }
 
