@@ -196,3 +196,14 @@ def test_cli_identify_with_unknown_fov(tmp_path, capsys) -> None:  # type: ignor
     assert main(["identify", str(frame_file), "--size", "1024x1024", "--fov-range-deg", "10", "20"]) == 0
     out = capsys.readouterr().out
     assert "field of view (estimated): 14.99" in out or "field of view (estimated): 15.00" in out
+
+
+def test_simulated_radial_distortion_is_recovered(bundled: starid.Catalog) -> None:
+    frame = starid.simulate(bundled, 16.0, (1024, 1024), seed=5, radial_k1=-0.08)
+    res = starid.identify(frame.xy, bundled, fov_deg=16.0, image_size=(1024, 1024))
+    assert res.ok
+    fit = sp.refine(res, frame.xy, bundled, (1024, 1024), fit_k1=True)
+    assert fit.k1 == pytest.approx(-0.08, abs=1e-9)
+    assert fit.focal_px == pytest.approx(sp.focal_from_fov(16.0, 1024), rel=1e-9)
+    with pytest.raises(ValueError, match="radial_k1"):
+        starid.simulate(bundled, 16.0, (1024, 1024), seed=5, radial_k1=float("nan"))

@@ -32,6 +32,36 @@ fn identify(c: &mut Criterion) {
             },
         ),
         (
+            "12deg_512px_0.2px_5false",
+            12.0,
+            512.0,
+            SimConfig {
+                noise_px: 0.2,
+                false_stars: 5,
+                ..Default::default()
+            },
+        ),
+        (
+            "10deg_1024px_mag6.5_0.3px",
+            10.0,
+            1024.0,
+            SimConfig {
+                noise_px: 0.3,
+                mag_limit: Some(6.5),
+                ..Default::default()
+            },
+        ),
+        (
+            "12deg_512px_0.2px_k1_-0.02",
+            12.0,
+            512.0,
+            SimConfig {
+                noise_px: 0.2,
+                radial_k1: -0.02,
+                ..Default::default()
+            },
+        ),
+        (
             "12deg_512px_1px_2false_10pctdrop",
             12.0,
             512.0,
@@ -75,5 +105,19 @@ fn identify(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, identify);
+/// Attitude from matched stars: Wahba/SVD over 20 pairs.
+fn attitude(c: &mut Criterion) {
+    use starid_core::attitude::wahba_svd;
+    use starid_core::geometry::{attitude_from_radec_roll, radec_to_unit};
+    let r = attitude_from_radec_roll(1.0, 0.4, 2.0);
+    let refs: Vec<_> = (0..20)
+        .map(|i| radec_to_unit(1.0 + 0.01 * i as f64, 0.4 + 0.007 * (i % 7) as f64))
+        .collect();
+    let obs: Vec<_> = refs.iter().map(|v| r * v).collect();
+    c.bench_function("attitude/wahba_svd_20_stars", |b| {
+        b.iter(|| wahba_svd(black_box(&obs), &refs).unwrap())
+    });
+}
+
+criterion_group!(benches, identify, attitude);
 criterion_main!(benches);

@@ -386,6 +386,7 @@ def simulate(
     false_stars: int = 0,
     drop_fraction: float = 0.0,
     mirrored: bool = False,
+    radial_k1: float = 0.0,
 ) -> Frame:
     """Simulate the centroids a star tracker would see.
 
@@ -411,6 +412,9 @@ def simulate(
         Probability that a real star is missing.
     mirrored : bool
         Reverse the x axis (``x -> W - x``), as an odd number of reflections would.
+    radial_k1 : float
+        Radial distortion: a star at normalised camera coordinates ``(u, v)`` is imaged at
+        ``centre + f * (u, v) * (1 + radial_k1 * (u**2 + v**2))`` (negative: barrel).
 
     Returns
     -------
@@ -450,6 +454,7 @@ def simulate(
         int(false_stars),
         float(drop_fraction),
         bool(mirrored),
+        float(radial_k1),
     )
     return Frame(
         xy=d["xy"],

@@ -124,6 +124,7 @@ def simulate(
     false_stars: int = 0,
     drop_fraction: float = 0.0,
     mirrored: bool = False,
+    radial_k1: float = 0.0,
 ) -> dict[str, Any]: ...
 def guide_select(
     catalog: Catalog,

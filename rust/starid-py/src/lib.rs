@@ -216,7 +216,8 @@ fn identify_many<'py>(
 /// Simulate one frame; returns a dict with the centroids and the truth.
 #[pyfunction]
 #[pyo3(signature = (catalog, fov_deg, width_px, height_px, seed, attitude_deg=None, mag_limit=None,
-                    noise_px=0.0, mag_noise=0.0, false_stars=0, drop_fraction=0.0, mirrored=false))]
+                    noise_px=0.0, mag_noise=0.0, false_stars=0, drop_fraction=0.0, mirrored=false,
+                    radial_k1=0.0))]
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -232,6 +233,7 @@ fn simulate<'py>(
     false_stars: usize,
     drop_fraction: f64,
     mirrored: bool,
+    radial_k1: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let cam = camera(fov_deg, width_px, height_px)?;
     let r = match attitude_deg {
@@ -257,6 +259,7 @@ fn simulate<'py>(
         false_stars,
         drop_fraction,
         mirrored,
+        radial_k1,
     };
     let cat = Arc::clone(&catalog.get().inner);
     let frame = run_core(py, move || sim::simulate(&cat, &cam, &config, seed))?;

