@@ -199,8 +199,11 @@ def table(results: dict[tuple[str, str], Outcome], builds: dict[tuple[str, str],
 
 
 def plot(results: dict[tuple[str, str], Outcome], frames: int, scenarios: list[str], solvers: list[str], path: str) -> None:
-    import matplotlib
-
+    try:
+        import matplotlib
+    except ImportError:
+        print("matplotlib not installed: no PNG")
+        return
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
