@@ -451,7 +451,6 @@ struct SearchLimit(Status);
 #[derive(Default)]
 struct Scratch {
     adj_ik: Adjacency,
-    adj_jk: Adjacency,
     triangles: Vec<[u32; 3]>,
     matches: Vec<Option<(u32, f64)>>,
     claim: Vec<(u32, u32, f64)>,
@@ -680,15 +679,45 @@ impl Search<'_> {
         if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
             return;
         }
+        // Walk the sparser of the two sides at one vertex, look the other up through an adjacency
+        // list, and check the third side with one dot product against its cosine bounds: one
+        // adjacency fill per triangle instead of two, and no list walk for the closing side.
         let n_cat = self.solver.catalog.len();
-        self.scratch.adj_ik.fill(idx.pairs(r_ik), n_cat);
-        self.scratch.adj_jk.fill(idx.pairs(r_jk), n_cat);
-        let (adj_ik, adj_jk) = (&self.scratch.adj_ik, &self.scratch.adj_jk);
-        for &[p, q] in idx.pairs(r_ij) {
-            for (a, b) in [(p, q), (q, p)] {
-                for c in adj_ik.partners(a) {
-                    if adj_jk.partners(b).any(|d| d == c) {
-                        out.push([a, b, c]);
+        let cat = self.solver.catalog.vectors();
+        // Sides as (range, vertex pair) with vertices 0 = i, 1 = j, 2 = k.
+        let sides = [(r_ij, (0usize, 1usize)), (r_ik, (0, 2)), (r_jk, (1, 2))];
+        let closing = (0..3)
+            .max_by_key(|&e| sides[e].0.len())
+            .expect("three sides");
+        let (mut walk, mut look) = match closing {
+            0 => (sides[1].clone(), sides[2].clone()),
+            1 => (sides[0].clone(), sides[2].clone()),
+            _ => (sides[0].clone(), sides[1].clone()),
+        };
+        if walk.0.len() > look.0.len() {
+            std::mem::swap(&mut walk, &mut look);
+        }
+        // The shared vertex of the walked and looked-up sides, and their other ends.
+        let (w0, w1) = walk.1;
+        let (l0, l1) = look.1;
+        let shared = if w0 == l0 || w0 == l1 { w0 } else { w1 };
+        let walk_other = if w0 == shared { w1 } else { w0 };
+        let look_other = if l0 == shared { l1 } else { l0 };
+        let t_close = [t_ij, t_ik, t_jk][closing];
+        let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
+        self.scratch.adj_ik.fill(idx.pairs(look.0.clone()), n_cat);
+        let adj = &self.scratch.adj_ik;
+        for &[p, q] in idx.pairs(walk.0) {
+            for (x, y) in [(p, q), (q, p)] {
+                let vy = &cat[y as usize];
+                for z in adj.partners(x) {
+                    let c = vy.dot(&cat[z as usize]);
+                    if c <= cos_hi && c >= cos_lo && z != y {
+                        let mut t = [0u32; 3];
+                        t[shared] = x;
+                        t[walk_other] = y;
+                        t[look_other] = z;
+                        out.push(t);
                     }
                 }
             }
@@ -866,9 +895,11 @@ fn unambiguous_nearest(
 ) -> Option<(u32, f64)> {
     let (best, second) = zones.nearest_two(cat, w, radius);
     let (star, _) = best?;
-    let d1 = crate::geometry::angle_between(w, &cat[star as usize]);
+    // Match radii are far below a degree: the sine of the angle (|w × c|, no libm call) is the
+    // angle to better than 1e-5 relative there.
+    let d1 = w.cross(&cat[star as usize]).norm();
     if let Some((s2, _)) = second {
-        let d2 = crate::geometry::angle_between(w, &cat[s2 as usize]);
+        let d2 = w.cross(&cat[s2 as usize]).norm();
         // Decisive only when the nearer star is AMBIGUITY_LOG_ODDS times likelier under
         // Gaussian noise: (d2² − d1²) / 2σ² ≥ ln(odds).
         if d2 * d2 - d1 * d1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
