@@ -12,7 +12,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ._catalog import Catalog, resolve_catalog
-from ._identify import Identification, identify, simulate
+from ._identify import Identification, identify, identify_many, simulate
 from .starlist import read_star_list
 
 EXAMPLE_FRAME = Path(__file__).parent / "data" / "example_frame.csv"
@@ -120,6 +120,23 @@ def _table(labels: Sequence[str], res: Identification) -> str:
     return "\n".join(lines)
 
 
+BATCH = 256
+
+
+def _progress(done: int, total: int, identified: int, elapsed_s: float) -> None:
+    """A one-line progress bar on stderr."""
+    width = 30
+    filled = int(width * done / max(total, 1))
+    rate = done / elapsed_s if elapsed_s > 0 else 0.0
+    print(
+        f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} frames, {identified} identified, "
+        f"{rate:,.0f} frames/s",
+        end="" if done < total else "\n",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
 def _identify(args: argparse.Namespace) -> int:
     files: list[Path] = list(args.files)
     fov, size = args.fov_deg, args.size
@@ -139,28 +156,55 @@ def _identify(args: argparse.Namespace) -> int:
     failures = 0
     show_progress = len(files) > 20 and not args.json and sys.stderr.isatty()
     t0 = time.perf_counter()
-    for n, path in enumerate(files):
-        stars = read_star_list(path)
-        mags = None if args.no_magnitudes else stars.magnitudes
-        res = identify(
+    star_lists = [read_star_list(path) for path in files]
+
+    def solve_one(k: int) -> Identification:
+        stars = star_lists[k]
+        return identify(
             stars.xy,
             catalog=catalog,
             fov_deg=fov,
             image_size=size,
             fov_range_deg=fov_range,
-            magnitudes=mags,
+            magnitudes=None if args.no_magnitudes else stars.magnitudes,
             centroid_sigma_px=args.sigma_px,
             max_false_match_prob=args.max_false_prob,
         )
+
+    solved: list[Identification] = []
+    if fov is not None and len(files) > 20:
+        # Many frames of one camera: identify them in batches on every core (Rust threads),
+        # with a progress bar between batches.
+        for lo in range(0, len(files), BATCH):
+            chunk = star_lists[lo : lo + BATCH]
+            solved.extend(
+                identify_many(
+                    [s.xy for s in chunk],
+                    catalog=catalog,
+                    fov_deg=fov,
+                    image_size=size,
+                    magnitudes=None if args.no_magnitudes else [s.magnitudes for s in chunk],
+                    centroid_sigma_px=args.sigma_px,
+                    max_false_match_prob=args.max_false_prob,
+                )
+            )
+            if show_progress:
+                _progress(len(solved), len(files), sum(r.ok for r in solved), time.perf_counter() - t0)
+    for n, path in enumerate(files):
+        stars = star_lists[n]
+        if n < len(solved):
+            res = solved[n]
+        else:
+            res = solve_one(n)
+            if show_progress:
+                _progress(n + 1, len(files), n + 1 - failures - (not res.ok), time.perf_counter() - t0)
         failures += not res.ok
         if args.json:
             d = res.to_dict()
             d["file"] = str(path)
             d["labels"] = stars.labels
             results.append(d)
-        elif show_progress:
-            print(f"\r{n + 1}/{len(files)} frames, {n + 1 - failures} identified", end="", file=sys.stderr)
-        else:
+        elif not show_progress:  # with a progress bar, only the summary is printed
             print(f"== {path}  ({len(stars.labels)} centroids)")
             print(_table(stars.labels, res))
             if res.ok and res.quaternion is not None:
@@ -180,8 +224,6 @@ def _identify(args: argparse.Namespace) -> int:
             else:
                 print(f"not identified ({res.status})")
             print(f"time: {res.time_s * 1e3:.3f} ms\n")
-    if show_progress:
-        print(file=sys.stderr)
     if args.json:
         json.dump(results if len(results) != 1 else results[0], sys.stdout, indent=2)
         print()
