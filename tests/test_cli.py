@@ -50,3 +50,16 @@ def test_cli_errors(tmp_path: Path, capsys: object) -> None:
     assert main(["identify", str(tmp_path / "bad.csv")]) == 2
     np.savetxt(tmp_path / "few.txt", [[1, 2], [3, 4]])
     assert main(["identify", str(tmp_path / "few.txt"), "--fov-deg", "12", "--size", "512x512"]) == 2
+
+
+def test_many_files_are_identified_in_batches(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    paths = []
+    for seed in range(25):
+        p = tmp_path / f"f{seed}.csv"
+        assert main(["simulate", str(p), "--seed", str(seed), "--noise-px", "0.2"]) == 0
+        paths.append(str(p))
+    capsys.readouterr()
+    assert main(["identify", *paths, "--fov-deg", "12", "--size", "512x512"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("== ") == 25
+    assert "25/25 frames identified" in out
