@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import secrets
@@ -80,8 +81,6 @@ class Identification:
 
     @classmethod
     def _from_native(cls, d: dict[str, Any]) -> "Identification":
-        d = dict(d)
-        d.pop("catalog_index", None)
         return cls(**d)
 
     @property
@@ -217,14 +216,36 @@ def _config(
     allow_mirrored: bool,
     timeout_s: Optional[float] = None,
 ) -> Any:
+    return _native_config(
+        None if centroid_sigma_px is None else float(centroid_sigma_px),
+        float(max_false_match_prob),
+        int(min_matches),
+        int(max_search_stars),
+        int(max_hypotheses),
+        bool(allow_mirrored),
+        None if timeout_s is None else float(timeout_s),
+    )
+
+
+@functools.lru_cache(maxsize=64)
+def _native_config(
+    centroid_sigma_px: Optional[float],
+    max_false_match_prob: float,
+    min_matches: int,
+    max_search_stars: int,
+    max_hypotheses: int,
+    allow_mirrored: bool,
+    timeout_s: Optional[float],
+) -> Any:
+    """The native settings object, cached: the same settings are reused call after call."""
     return _starid.IdentifyConfig(
-        centroid_sigma_px=None if centroid_sigma_px is None else float(centroid_sigma_px),
-        max_false_match_prob=float(max_false_match_prob),
-        min_matches=int(min_matches),
-        max_search_stars=int(max_search_stars),
-        max_hypotheses=int(max_hypotheses),
-        allow_mirrored=bool(allow_mirrored),
-        timeout_s=None if timeout_s is None else float(timeout_s),
+        centroid_sigma_px=centroid_sigma_px,
+        max_false_match_prob=max_false_match_prob,
+        min_matches=min_matches,
+        max_search_stars=max_search_stars,
+        max_hypotheses=max_hypotheses,
+        allow_mirrored=allow_mirrored,
+        timeout_s=timeout_s,
     )
 
 

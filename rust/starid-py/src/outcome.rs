@@ -68,14 +68,6 @@ pub fn identification<'py>(
     d.set_item("ok", id.is_identified())?;
     d.set_item("status", id.status.as_str())?;
     d.set_item("ids", ids_of(catalog, &id.catalog_index).into_pyarray(py))?;
-    d.set_item(
-        "catalog_index",
-        id.catalog_index
-            .iter()
-            .map(|c| c.map_or(-1, i64::from))
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
     d.set_item("mirrored", id.mirrored)?;
     put_attitude(&d, id.r_icrs_to_cam.as_ref())?;
     d.set_item(
