@@ -300,6 +300,7 @@ impl Solver {
             pairs_visited: 0,
             deadline: config.timeout.map(|t| start + t),
             scratch: SCRATCH.with(|c| c.take()),
+            angles: Vec::new(),
         };
         let mut status = Status::NoMatch;
         for (step, &sigma_px) in ladder.iter().enumerate() {
@@ -469,6 +470,9 @@ struct Search<'a> {
     pairs_visited: usize,
     deadline: Option<Instant>,
     scratch: Scratch,
+    /// Angles between the search stars (row-major, NaN until first needed), kept across the
+    /// ladder's steps: the observed directions do not change between them.
+    angles: Vec<f64>,
 }
 
 /// A verified solution.
@@ -514,6 +518,18 @@ impl Search<'_> {
         sigma_px: f64,
         cap: usize,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
+        let mut angle = std::mem::take(&mut self.angles);
+        let result = self.run_step(sigma_px, cap, &mut angle);
+        self.angles = angle;
+        result
+    }
+
+    fn run_step(
+        &mut self,
+        sigma_px: f64,
+        cap: usize,
+        angle: &mut Vec<f64>,
+    ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let f = self.camera.focal_length_px;
         let sigma_rad = sigma_px / f;
         let eps = 3.0 * SQRT_2 * sigma_rad + 1e-7;
@@ -531,14 +547,22 @@ impl Search<'_> {
         let s = self.order.len().min(self.config.max_search_stars);
         let obs = self.obs[0];
         let search: Vec<usize> = self.order[..s].to_vec();
-        let mut angle = vec![0.0f64; s * s];
-        for a in 0..s {
-            for b in a + 1..s {
-                let t = crate::geometry::angle_between(&obs[search[a]], &obs[search[b]]);
-                angle[a * s + b] = t;
-                angle[b * s + a] = t;
-            }
+        if angle.len() != s * s {
+            angle.clear();
+            angle.resize(s * s, f64::NAN);
         }
+        // Angles are computed when a triangle first needs them (most frames stop after a few
+        // triangles, long before all s² pairs are visited).
+        let mut pair_angle = |a: usize, b: usize| -> f64 {
+            let t = angle[a * s + b];
+            if !t.is_nan() {
+                return t;
+            }
+            let t = crate::geometry::angle_between(&obs[search[a]], &obs[search[b]]);
+            angle[a * s + b] = t;
+            angle[b * s + a] = t;
+            t
+        };
         let mut tried = 0usize;
         let mut best: Option<Verified> = None;
         let mut stop_after = usize::MAX;
@@ -547,7 +571,7 @@ impl Search<'_> {
             for dk in 1..s - dj {
                 for a in 0..s - dj - dk {
                     let (b, c) = (a + dj, a + dj + dk);
-                    let (t_ij, t_ik, t_jk) = (angle[a * s + b], angle[a * s + c], angle[b * s + c]);
+                    let (t_ij, t_ik, t_jk) = (pair_angle(a, b), pair_angle(a, c), pair_angle(b, c));
                     let (lo, hi) = (t_ij.min(t_ik).min(t_jk), t_ij.max(t_ik).max(t_jk));
                     if hi > max_angle || lo < 2.0 * eps {
                         continue;
