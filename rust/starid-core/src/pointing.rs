@@ -42,6 +42,10 @@ use crate::lsq::{self, Problem};
 /// Largest number of stars the pointing functions accept.
 pub const MAX_STARS: usize = 100_000;
 
+/// Largest number of stars [`boresight_from_distances`] accepts (its focal scan visits every
+/// star at each of its starting focal lengths).
+pub const MAX_DISTANCE_STARS: usize = 1_000;
+
 /// Reciprocal condition (scaled Jacobian) below which a solution is flagged degenerate: some
 /// direction of the parameters is determined about 100 times worse than by a well-spread set of
 /// stars (well-spread triples score 0.1–1).
@@ -169,11 +173,18 @@ fn check_stars(stars: &[Vector3<f64>], what: &str) -> Result<()> {
             )));
         }
     }
-    for i in 0..stars.len() {
-        for k in (i + 1)..stars.len().min(i + 1 + 2000) {
+    // Repeated stars: sorted by x, a repeat sits within 1e-9 in x of its twin (O(n log n)).
+    let mut by_x: Vec<usize> = (0..stars.len()).collect();
+    by_x.sort_by(|&a, &b| stars[a].x.total_cmp(&stars[b].x));
+    for (pos, &i) in by_x.iter().enumerate() {
+        for &k in &by_x[pos + 1..] {
+            if stars[k].x - stars[i].x > 1e-9 {
+                break;
+            }
             if angle_between(&stars[i], &stars[k]) < 1e-9 {
+                let (a, b) = (i.min(k), i.max(k));
                 return Err(Error::invalid_input(format!(
-                    "stars {i} and {k} are the same direction"
+                    "stars {a} and {b} are the same direction"
                 )));
             }
         }
@@ -206,6 +217,12 @@ pub fn boresight_from_distances(
     if stars.len() < 3 {
         return Err(Error::invalid_input(format!(
             "the boresight from distances needs at least 3 stars, got {}",
+            stars.len()
+        )));
+    }
+    if stars.len() > MAX_DISTANCE_STARS {
+        return Err(Error::invalid_input(format!(
+            "the boresight from distances takes at most {MAX_DISTANCE_STARS} stars, got {}",
             stars.len()
         )));
     }
