@@ -204,6 +204,28 @@ impl Identification {
     pub fn is_identified(&self) -> bool {
         self.status == Status::Identified
     }
+
+    /// The outcome of a search that found nothing for `n` centroids.
+    pub(crate) fn unidentified(
+        status: Status,
+        n: usize,
+        hypotheses: usize,
+        elapsed: Duration,
+    ) -> Self {
+        Self {
+            status,
+            catalog_index: vec![None; n],
+            r_icrs_to_cam: None,
+            mirrored: false,
+            residuals_rad: vec![f64::NAN; n],
+            false_match_probability: 1.0,
+            matched: 0,
+            centroid_sigma_px: f64::NAN,
+            match_radius_rad: f64::NAN,
+            hypotheses,
+            elapsed,
+        }
+    }
 }
 
 /// A catalogue with its pair index: everything identification needs. Immutable and `Sync`:
@@ -324,19 +346,12 @@ impl Solver {
         }
         let hypotheses = search.hypotheses;
         SCRATCH.with(|c| c.replace(search.scratch));
-        Ok(Identification {
+        Ok(Identification::unidentified(
             status,
-            catalog_index: vec![None; n],
-            r_icrs_to_cam: None,
-            mirrored: false,
-            residuals_rad: vec![f64::NAN; n],
-            false_match_probability: 1.0,
-            matched: 0,
-            centroid_sigma_px: f64::NAN,
-            match_radius_rad: f64::NAN,
+            n,
             hypotheses,
-            elapsed: start.elapsed(),
-        })
+            start.elapsed(),
+        ))
     }
 }
 

@@ -217,19 +217,12 @@ impl Solver {
             }
         }
         Ok(FocalIdentification {
-            identification: Identification {
+            identification: Identification::unidentified(
                 status,
-                catalog_index: vec![None; n],
-                r_icrs_to_cam: None,
-                mirrored: false,
-                residuals_rad: vec![f64::NAN; n],
-                false_match_probability: 1.0,
-                matched: 0,
-                centroid_sigma_px: f64::NAN,
-                match_radius_rad: f64::NAN,
-                hypotheses: hypotheses_total,
-                elapsed: start.elapsed(),
-            },
+                n,
+                hypotheses_total,
+                start.elapsed(),
+            ),
             camera: None,
             fit: None,
             focal_hypotheses: search.tried.len(),

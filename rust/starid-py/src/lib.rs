@@ -118,7 +118,7 @@ impl PyIdentifyConfig {
     }
 }
 
-fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Camera> {
+pub(crate) fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Camera> {
     Camera::from_fov(fov_deg.to_radians(), width_px, height_px).map_err(|e| PyStaridError(e).into())
 }
 

@@ -242,10 +242,8 @@ pub fn identify_unknown_fov<'py>(
             "fov_range_deg must be (lo, hi) with 0 < lo <= hi < 179 degrees, got ({fov_lo_deg}, {fov_hi_deg})"
         )));
     }
-    let widest = Camera::from_fov(fov_hi_deg.to_radians(), width_px, height_px)
-        .map_err(|e| PyErr::from(crate::errors::PyStaridError(e)))?;
-    let narrowest = Camera::from_fov(fov_lo_deg.to_radians(), width_px, height_px)
-        .map_err(|e| PyErr::from(crate::errors::PyStaridError(e)))?;
+    let widest = crate::camera(fov_hi_deg, width_px, height_px)?;
+    let narrowest = crate::camera(fov_lo_deg, width_px, height_px)?;
     let centroids = convert::centroids("xy", &xy)?;
     let mags = magnitudes
         .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
