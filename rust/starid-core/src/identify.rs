@@ -45,6 +45,7 @@ use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
 use crate::kvector::PairIndex;
+use crate::sky::Radius;
 
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
@@ -777,6 +778,7 @@ impl Search<'_> {
     ) -> bool {
         let cat = self.solver.catalog.vectors();
         let zones = self.solver.catalog.zones();
+        let radius = Radius::new(radius);
         let mut remaining = self.order.len() - 3;
         let mut found = 0;
         for &o in self.order.iter().filter(|o| !used.contains(o)) {
@@ -869,6 +871,7 @@ impl Search<'_> {
     ) -> usize {
         let cat = self.solver.catalog.vectors();
         let zones = self.solver.catalog.zones();
+        let radius = Radius::new(radius);
         let s = &mut self.scratch;
         s.matches.clear();
         s.claim.clear();
@@ -929,10 +932,10 @@ fn unambiguous_nearest(
     zones: &crate::sky::ZoneIndex,
     cat: &[Vector3<f64>],
     w: &Vector3<f64>,
-    radius: f64,
+    radius: Radius,
     sigma_rad: f64,
 ) -> Option<(u32, f64)> {
-    let (best, second) = zones.nearest_two(cat, w, radius);
+    let (best, second) = zones.nearest_two_within(cat, w, radius);
     let (star, _) = best?;
     // Match radii are far below a degree: the sine of the angle (|w × c|, no libm call) is the
     // angle to better than 1e-5 relative there.

@@ -14,6 +14,28 @@ use crate::geometry::unit_to_radec;
 /// A star found by a query: its index and the cosine of its angle to the query direction.
 pub type Hit = (u32, f64);
 
+/// A query radius with its cosine and sine, computed once for many queries of that radius.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Radius {
+    rad: f64,
+    cos: f64,
+    sin: f64,
+}
+
+impl Radius {
+    /// A radius in radians (clamped to π).
+    pub fn new(rad: f64) -> Self {
+        let rad = rad.min(PI);
+        let (sin, cos) = rad.sin_cos();
+        Self { rad, cos, sin }
+    }
+
+    /// The radius in radians.
+    pub fn rad(&self) -> f64 {
+        self.rad
+    }
+}
+
 /// Zone index over a set of unit vectors.
 #[derive(Debug, Clone)]
 pub struct ZoneIndex {
@@ -65,19 +87,29 @@ impl ZoneIndex {
         self.zone_start.len() * 4 + self.order.len() * 4 + self.ra_rad.len() * 8
     }
 
-    /// Calls `f(index)` for every star within `radius_rad` of `center` (a unit vector);
+    /// Calls `f(index, cos)` for every star within `radius_rad` of `center` (a unit vector);
     /// `vectors` must be the vectors the index was built over.
     pub fn for_each_in_cone(
         &self,
         vectors: &[Vector3<f64>],
         center: &Vector3<f64>,
         radius_rad: f64,
+        f: impl FnMut(u32, f64),
+    ) {
+        self.for_each_within(vectors, center, Radius::new(radius_rad), f);
+    }
+
+    /// [`ZoneIndex::for_each_in_cone`] with a precomputed [`Radius`].
+    pub fn for_each_within(
+        &self,
+        vectors: &[Vector3<f64>],
+        center: &Vector3<f64>,
+        radius: Radius,
         mut f: impl FnMut(u32, f64),
     ) {
-        let cos_r = radius_rad.min(PI).cos();
-        self.for_each_candidate(center, radius_rad, |star| {
+        self.for_each_candidate(center, radius, |star| {
             let c = vectors[star as usize].dot(center);
-            if c >= cos_r {
+            if c >= radius.cos {
                 f(star, c);
             }
         });
@@ -91,9 +123,19 @@ impl ZoneIndex {
         center: &Vector3<f64>,
         radius_rad: f64,
     ) -> (Option<Hit>, Option<Hit>) {
+        self.nearest_two_within(vectors, center, Radius::new(radius_rad))
+    }
+
+    /// [`ZoneIndex::nearest_two`] with a precomputed [`Radius`].
+    pub fn nearest_two_within(
+        &self,
+        vectors: &[Vector3<f64>],
+        center: &Vector3<f64>,
+        radius: Radius,
+    ) -> (Option<Hit>, Option<Hit>) {
         let mut best: Option<Hit> = None;
         let mut second: Option<Hit> = None;
-        self.for_each_in_cone(vectors, center, radius_rad, |star, c| {
+        self.for_each_within(vectors, center, radius, |star, c| {
             if best.is_none_or(|b| c > b.1) {
                 second = best;
                 best = Some((star, c));
@@ -104,9 +146,10 @@ impl ZoneIndex {
         (best, second)
     }
 
-    /// Every star whose zone and RA window may hold points within `radius_rad` of `center`.
-    fn for_each_candidate(&self, center: &Vector3<f64>, radius_rad: f64, mut f: impl FnMut(u32)) {
+    /// Every star whose zone and RA window may hold points within `radius` of `center`.
+    fn for_each_candidate(&self, center: &Vector3<f64>, radius: Radius, mut f: impl FnMut(u32)) {
         let n_zones = self.zone_count();
+        let radius_rad = radius.rad;
         let (ra_c, dec_c) = unit_to_radec(center);
         let dec_lo = dec_c - radius_rad;
         let dec_hi = dec_c + radius_rad;
@@ -114,12 +157,19 @@ impl ZoneIndex {
         let z_hi = zone_of(dec_hi.min(FRAC_PI_2), self.zone_height_rad, n_zones);
         // Half-width in RA of the cone (exact maximum over the cone), or the whole circle when
         // the cone holds a pole.
+        // (A window wider than needed is harmless: candidates are filtered by their exact angle.)
         let half_width = if dec_hi >= FRAC_PI_2 || dec_lo <= -FRAC_PI_2 {
             None
         } else {
-            let s = radius_rad.sin() / dec_c.cos();
+            // cos(dec) of the centre without trigonometry.
+            let cos_dec = center.x.hypot(center.y) / center.norm();
+            let s = radius.sin / cos_dec;
             if s >= 1.0 {
                 None
+            } else if s < 0.3 {
+                // Small cones (every match query): tan(asin s) = s / √(1 − s²) ≥ asin s, a window
+                // at most 3 % wider and free of trigonometry.
+                Some(s / (1.0 - s * s).sqrt() + 1e-12)
             } else {
                 Some(s.asin() + 1e-12)
             }
@@ -191,6 +241,35 @@ mod tests {
                 .filter(|&i| v[i as usize].dot(&c) >= r.cos())
                 .collect();
             assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn small_cones_at_the_ra_seam_and_near_the_poles() {
+        // Dense stars around RA 0 and at high declination; small radii use the trig-free window.
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let v: Vec<_> = (0..20_000)
+            .map(|_| {
+                let ra = rng.random_range(-0.05f64..0.05).rem_euclid(TAU);
+                let dec = rng.random_range(-1.55f64..1.55);
+                radec_to_unit(ra, dec)
+            })
+            .collect();
+        let idx = ZoneIndex::new(&v, 0.5f64.to_radians());
+        for _ in 0..500 {
+            let c = radec_to_unit(
+                rng.random_range(-0.05f64..0.05).rem_euclid(TAU),
+                rng.random_range(-1.57f64..1.57),
+            );
+            let radius = Radius::new(rng.random_range(1e-4..0.02));
+            let (best, second) = idx.nearest_two_within(&v, &c, radius);
+            let mut all: Vec<(f64, u32)> = (0..v.len() as u32)
+                .map(|i| (v[i as usize].dot(&c), i))
+                .filter(|&(d, _)| d >= radius.cos)
+                .collect();
+            all.sort_by(|a, b| b.0.total_cmp(&a.0));
+            assert_eq!(best.map(|b| b.0), all.first().map(|a| a.1));
+            assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1));
         }
     }
 }
