@@ -1,0 +1,197 @@
+//! The peer benchmark's five scenarios (issue 5) in pure Rust: frames simulated from the bundled
+//! catalogue with 0.1 mag magnitude noise, identified with their magnitudes, single thread.
+//! Same truth rule as `benches/peers/bench_peers.py`: identified = boresight within 0.1° of the
+//! truth, wrong = a solution farther off, frames with fewer than 3 real stars count as failures.
+//!
+//! `cargo run --release --example scenarios -- [FRAMES] [REPEAT] [SCENARIO-SUBSTRING]`
+//!
+//! `REPEAT` identifies every frame that many times (for profilers); times are of the first pass.
+//! Environment: `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
+//! the hopeless ones); `STARID_HYP` prints hypothesis counts; `STARID_FAILS` lists failures and
+//! wrong ids; `STARID_SEED=N` runs one frame.
+#![allow(clippy::print_stdout)]
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+use starid_core::{simulate, Camera, Catalog, IdentifyConfig, SimConfig, Solver};
+
+struct Scenario {
+    name: &'static str,
+    fov_deg: f64,
+    size_px: f64,
+    sim: SimConfig,
+}
+
+fn scenarios() -> Vec<Scenario> {
+    let base = SimConfig {
+        mag_limit: Some(6.0),
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
+    vec![
+        Scenario {
+            name: "12deg/512px mag6 0.2px",
+            fov_deg: 12.0,
+            size_px: 512.0,
+            sim: base.clone(),
+        },
+        Scenario {
+            name: "20deg/1024px mag6 0.2px",
+            fov_deg: 20.0,
+            size_px: 1024.0,
+            sim: base.clone(),
+        },
+        Scenario {
+            name: "12deg/512px 1px +2 false -10%",
+            fov_deg: 12.0,
+            size_px: 512.0,
+            sim: SimConfig {
+                noise_px: 1.0,
+                false_stars: 2,
+                drop_fraction: 0.1,
+                ..base.clone()
+            },
+        },
+        Scenario {
+            name: "12deg/512px +5 false",
+            fov_deg: 12.0,
+            size_px: 512.0,
+            sim: SimConfig {
+                false_stars: 5,
+                ..base.clone()
+            },
+        },
+        Scenario {
+            name: "10deg/1024px mag6.5 0.3px",
+            fov_deg: 10.0,
+            size_px: 1024.0,
+            sim: SimConfig {
+                mag_limit: Some(6.5),
+                noise_px: 0.3,
+                ..base
+            },
+        },
+    ]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let frames: u64 = args.get(1).map_or(1000, |a| a.parse().expect("FRAMES"));
+    let repeat: usize = args.get(2).map_or(1, |a| a.parse().expect("REPEAT"));
+    let filter = args.get(3).cloned().unwrap_or_default();
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
+    let catalog = Arc::new(Catalog::from_path(path).expect("bundled catalogue"));
+    let config = IdentifyConfig::default();
+    for sc in scenarios().into_iter().filter(|s| s.name.contains(&filter)) {
+        let camera =
+            Camera::from_fov(sc.fov_deg.to_radians(), sc.size_px, sc.size_px).expect("camera");
+        let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
+        let sims: Vec<_> = (0..frames)
+            .map(|seed| simulate(&catalog, &camera, &sc.sim, seed).expect("frame"))
+            .collect();
+        let (mut ok, mut wrong, mut none, mut ge4, mut ok_ge4, mut wrong_ids, mut ids) =
+            (0, 0, 0, 0, 0, 0, 0);
+        let mut times = Vec::new();
+        let mut hyps: Vec<usize> = Vec::new();
+        let mut fast = vec![true; sims.len()];
+        let fast_only = std::env::var("STARID_FAST_ONLY").is_ok();
+        for pass in 0..repeat {
+            for (fi, f) in sims.iter().enumerate() {
+                if pass > 0 && fast_only && !fast[fi] {
+                    continue;
+                }
+                if std::env::var("STARID_SEED").is_ok_and(|v| v.parse::<usize>().ok() != Some(fi)) {
+                    continue;
+                }
+                let real = f.real_stars();
+                if real < 3 || f.centroids.len() < 4 {
+                    if pass == 0 {
+                        none += 1;
+                        ge4 += usize::from(real >= 4);
+                    }
+                    continue;
+                }
+                let r = solver
+                    .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)
+                    .expect("identify");
+                if pass > 0 {
+                    continue;
+                }
+                fast[fi] = r.elapsed.as_secs_f64() < 150e-6;
+                times.push(r.elapsed.as_secs_f64());
+                if std::env::var("STARID_SEED").is_ok() {
+                    println!(
+                        "  seed {fi}: {:?} hypotheses {} matched {} p {:e} time {:?}",
+                        r.status, r.hypotheses, r.matched, r.false_match_probability, r.elapsed
+                    );
+                }
+                hyps.push(r.hypotheses);
+                ge4 += usize::from(real >= 4);
+                let Some(rot) = r.r_icrs_to_cam else {
+                    none += 1;
+                    if std::env::var("STARID_FAILS").is_ok() {
+                        println!(
+                            "  fail seed {fi}: {real} real of {}, {:?}, {} hypotheses",
+                            f.centroids.len(),
+                            r.status,
+                            r.hypotheses
+                        );
+                    }
+                    continue;
+                };
+                let z = Vector3::z();
+                let err = rot
+                    .inverse_transform_vector(&z)
+                    .angle(&f.r_icrs_to_cam.inverse_transform_vector(&z));
+                if err.to_degrees() < 0.1 {
+                    ok += 1;
+                    ok_ge4 += usize::from(real >= 4);
+                } else {
+                    wrong += 1;
+                }
+                for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
+                    if got.is_some() {
+                        ids += 1;
+                        wrong_ids += usize::from(got != want);
+                        if got != want && std::env::var("STARID_FAILS").is_ok() {
+                            println!("  wrong id seed {fi}: got {got:?} want {want:?}");
+                        }
+                    }
+                }
+            }
+        }
+        times.sort_by(f64::total_cmp);
+        hyps.sort();
+        if std::env::var("STARID_HYP").is_ok() {
+            println!(
+                "hypotheses: median {} p90 {} p99 {} mean {:.1}",
+                hyps[hyps.len() / 2],
+                hyps[hyps.len() * 9 / 10],
+                hyps[hyps.len() * 99 / 100],
+                hyps.iter().sum::<usize>() as f64 / hyps.len() as f64
+            );
+        }
+        let q = |p: f64| times[((times.len() as f64 - 1.0) * p).round() as usize] * 1e6;
+        let pct = |k: usize| 100.0 * k as f64 / frames as f64;
+        println!(
+            "{:<31} identified {:6.2} %  wrong {:.2} %  none {:6.2} %  (>=4 stars {:6.2} %)  wrong ids {}/{}  \
+             median {:7.1} us  p99 {:8.1} us  max {:8.1} us  index {:.0} ms {:.1} MB",
+            sc.name,
+            pct(ok),
+            pct(wrong),
+            pct(none),
+            100.0 * ok_ge4 as f64 / ge4.max(1) as f64,
+            wrong_ids,
+            ids,
+            q(0.5),
+            q(0.99),
+            q(1.0),
+            solver.build_time().as_secs_f64() * 1e3,
+            solver.pair_index().memory_bytes() as f64 / 1e6,
+        );
+    }
+}
