@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 
 use crate::error::{Error, Result};
 use crate::geometry::{radec_to_unit, unit_to_radec};
-use crate::sky::ZoneIndex;
+use crate::sky::{CellIndex, Hit, Radius, ZoneIndex};
 
 /// Zone height of the catalogue's spatial index.
 const ZONE_HEIGHT_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
@@ -26,6 +26,7 @@ pub struct Catalog {
     mag: Vec<f64>,
     vectors: Vec<Vector3<f64>>,
     zones: ZoneIndex,
+    cells: CellIndex,
 }
 
 impl Catalog {
@@ -90,6 +91,7 @@ impl Catalog {
     fn from_vectors(ids: Vec<i64>, vectors: Vec<Vector3<f64>>, mag: Vec<f64>) -> Self {
         let (ra_rad, dec_rad): (Vec<f64>, Vec<f64>) = vectors.iter().map(unit_to_radec).unzip();
         let zones = ZoneIndex::new(&vectors, ZONE_HEIGHT_RAD);
+        let cells = CellIndex::new(&vectors);
         Self {
             ids,
             ra_rad,
@@ -97,6 +99,7 @@ impl Catalog {
             mag,
             vectors,
             zones,
+            cells,
         }
     }
 
@@ -343,6 +346,43 @@ impl Catalog {
     /// The spatial index over [`Catalog::vectors`].
     pub fn zones(&self) -> &ZoneIndex {
         &self.zones
+    }
+
+    /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
+    /// `(index, cos_angle)`: through the cube-face grid for small radii, else the zones.
+    #[inline]
+    pub fn nearest_two(&self, center: &Vector3<f64>, radius: Radius) -> (Option<Hit>, Option<Hit>) {
+        self.cells
+            .nearest_two_within(center, radius)
+            .unwrap_or_else(|| self.zones.nearest_two_within(&self.vectors, center, radius))
+    }
+
+    /// Which stars are *locally bright*: fewer than `max_brighter` stars brighter than them lie
+    /// within `radius_rad`. The few brightest stars of any field of about twice that width are
+    /// almost always among them.
+    pub fn locally_bright(&self, radius_rad: f64, max_brighter: usize) -> Vec<bool> {
+        let per_star = |i: usize| -> bool {
+            let m = self.mag[i];
+            let mut brighter = 0usize;
+            self.zones
+                .for_each_in_cone(&self.vectors, &self.vectors[i], radius_rad, |j, _| {
+                    let mj = self.mag[j as usize];
+                    // Ties go to the lower index, so equal magnitudes cannot all exclude each other.
+                    if mj < m || (mj == m && (j as usize) < i) {
+                        brighter += 1;
+                    }
+                });
+            brighter < max_brighter
+        };
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            (0..self.len()).into_par_iter().map(per_star).collect()
+        }
+        #[cfg(not(feature = "parallel"))]
+        {
+            (0..self.len()).map(per_star).collect()
+        }
     }
 
     /// Indices of the stars within `radius_rad` of `center`.

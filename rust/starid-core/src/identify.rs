@@ -67,6 +67,14 @@ pub const TRIANGLES_AFTER_WEAK: usize = 40;
 /// are required until it is below this.
 pub const CONFIRM_CHANCE: f64 = 1e-2;
 
+/// A catalogue star is *locally bright* when fewer than this many stars brighter than it lie
+/// within half the width of a square field (see [`Catalog::locally_bright`]).
+pub const BRIGHT_MAX_BRIGHTER: usize = 6;
+
+/// With magnitudes, triangles of this many brightest centroids are first searched among the
+/// pairs of locally bright stars only (a small fraction of all pairs), then the whole index.
+pub const BRIGHT_SEARCH_STARS: usize = 6;
+
 /// Largest number of centroids accepted in one frame.
 pub const MAX_CENTROIDS: usize = 100_000;
 
@@ -235,6 +243,8 @@ impl Identification {
 pub struct Solver {
     catalog: Arc<Catalog>,
     pairs: PairIndex,
+    /// Pairs among the locally bright stars; `None` when they are most of the catalogue.
+    bright_pairs: Option<PairIndex>,
     build_time: Duration,
 }
 
@@ -247,9 +257,22 @@ impl Solver {
     pub fn new(catalog: Arc<Catalog>, max_angle_rad: f64) -> Result<Self> {
         let t = Instant::now();
         let pairs = PairIndex::build(&catalog, max_angle_rad)?;
+        // Half the width of a square field of this diagonal.
+        let members = catalog.locally_bright(max_angle_rad / (2.0 * SQRT_2), BRIGHT_MAX_BRIGHTER);
+        let bright = members.iter().filter(|&&m| m).count();
+        let bright_pairs = if 5 * bright < 4 * catalog.len() {
+            Some(PairIndex::build_among(
+                &catalog,
+                max_angle_rad,
+                Some(&members),
+            )?)
+        } else {
+            None
+        };
         Ok(Self {
             catalog,
             pairs,
+            bright_pairs,
             build_time: t.elapsed(),
         })
     }
@@ -272,7 +295,22 @@ impl Solver {
         &self.pairs
     }
 
-    /// Time it took to build the pair index.
+    /// The pair index over locally bright stars only, searched first when magnitudes are
+    /// given (`None` when those stars are most of the catalogue).
+    pub fn bright_pair_index(&self) -> Option<&PairIndex> {
+        self.bright_pairs.as_ref()
+    }
+
+    /// Heap memory of both pair indexes in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.pairs.memory_bytes()
+            + self
+                .bright_pairs
+                .as_ref()
+                .map_or(0, PairIndex::memory_bytes)
+    }
+
+    /// Time it took to build the pair indexes.
     pub fn build_time(&self) -> Duration {
         self.build_time
     }
@@ -281,7 +319,8 @@ impl Solver {
     ///
     /// `centroids` are pixel `(x, y)`, x right, y down, origin at the sensor's top-left corner;
     /// `magnitudes`, when given, one instrument magnitude per centroid (smaller is brighter):
-    /// only their order is used, to search the brightest stars first.
+    /// only their order is used, to search the brightest stars first (among the locally
+    /// bright catalogue stars, then among all).
     ///
     /// # Errors
     /// `InvalidInput` for fewer than [`MIN_CENTROIDS`] or more than [`MAX_CENTROIDS`] centroids,
@@ -309,12 +348,38 @@ impl Solver {
         if let Some(m) = magnitudes {
             order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
         }
-        let ladder: Vec<f64> = match config.centroid_sigma_px {
-            Some(s) => vec![s],
-            None => SIGMA_LADDER_PX.to_vec(),
+        let ladder: &[f64] = match &config.centroid_sigma_px {
+            Some(s) => std::slice::from_ref(s),
+            None => &SIGMA_LADDER_PX,
         };
+        // Passes: (index, search stars, σ, triangle cap), in the order of the ladder, whose last
+        // (loosest) step comes last for both indexes: its wide tolerances find coincidences and
+        // verify with a wide radius, so it is the last resort. With magnitudes, each earlier
+        // step first tries the brightest few stars against the locally bright stars only: cheap,
+        // and it nearly always succeeds.
+        let bright = self.bright_pairs.as_ref().filter(|_| magnitudes.is_some());
+        let (last, early) = ladder.split_last().expect("the ladder has a step");
+        let mut passes: Vec<(&PairIndex, usize, f64, usize)> = Vec::with_capacity(6);
+        if let Some(b) = bright {
+            passes.extend(
+                early
+                    .iter()
+                    .map(|&s| (b, BRIGHT_SEARCH_STARS, s, usize::MAX)),
+            );
+        }
+        passes.extend(
+            early
+                .iter()
+                .map(|&s| (&self.pairs, config.max_search_stars, s, TRIANGLES_PER_STEP)),
+        );
+        if let Some(b) = bright {
+            passes.push((b, BRIGHT_SEARCH_STARS, *last, usize::MAX));
+        }
+        passes.push((&self.pairs, config.max_search_stars, *last, usize::MAX));
+        let stride = n.min(config.max_search_stars.max(BRIGHT_SEARCH_STARS));
         let mut search = Search {
             solver: self,
+            pairs: &self.pairs,
             camera,
             config,
             obs: [&obs, &obs_mirrored],
@@ -323,16 +388,13 @@ impl Solver {
             pairs_visited: 0,
             deadline: config.timeout.map(|t| start + t),
             scratch: SCRATCH.with(|c| c.take()),
-            angles: Vec::new(),
+            angles: vec![f64::NAN; stride * stride],
+            stride,
         };
         let mut status = Status::NoMatch;
-        for (step, &sigma_px) in ladder.iter().enumerate() {
-            let cap = if step + 1 == ladder.len() {
-                usize::MAX
-            } else {
-                TRIANGLES_PER_STEP
-            };
-            match search.run(sigma_px, cap) {
+        for (pairs, stars, sigma_px, cap) in passes {
+            search.pairs = pairs;
+            match search.run(stars, sigma_px, cap) {
                 Ok(Some(v)) => {
                     let hypotheses = search.hypotheses;
                     SCRATCH.with(|c| c.replace(search.scratch));
@@ -477,6 +539,8 @@ struct Scratch {
 
 struct Search<'a> {
     solver: &'a Solver,
+    /// The pair index of the current pass.
+    pairs: &'a PairIndex,
     camera: &'a Camera,
     config: &'a IdentifyConfig,
     /// Observed directions: `[as seen, x reversed]`.
@@ -486,9 +550,10 @@ struct Search<'a> {
     pairs_visited: usize,
     deadline: Option<Instant>,
     scratch: Scratch,
-    /// Angles between the search stars (row-major, NaN until first needed), kept across the
-    /// ladder's steps: the observed directions do not change between them.
+    /// Angles between the search stars (row-major with `stride`, NaN until first needed), kept
+    /// across the passes: the observed directions do not change between them.
     angles: Vec<f64>,
+    stride: usize,
 }
 
 /// A verified solution.
@@ -528,23 +593,26 @@ impl Verified {
 }
 
 impl Search<'_> {
-    /// One step of the ladder: Pyramid search at centroid noise `sigma_px`, at most `cap` triangles.
+    /// One pass: Pyramid search over the brightest `stars` centroids in `self.pairs` at
+    /// centroid noise `sigma_px`, at most `cap` triangles.
     fn run(
         &mut self,
+        stars: usize,
         sigma_px: f64,
         cap: usize,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut angle = std::mem::take(&mut self.angles);
-        let result = self.run_step(sigma_px, cap, &mut angle);
+        let result = self.run_step(stars, sigma_px, cap, &mut angle);
         self.angles = angle;
         result
     }
 
     fn run_step(
         &mut self,
+        stars: usize,
         sigma_px: f64,
         cap: usize,
-        angle: &mut Vec<f64>,
+        angle: &mut [f64],
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let f = self.camera.focal_length_px;
         let sigma_rad = sigma_px / f;
@@ -559,24 +627,22 @@ impl Search<'_> {
             .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
             .unwrap_or(others)
             .max(1);
-        let max_angle = self.solver.pairs.max_angle_rad() - eps;
-        let s = self.order.len().min(self.config.max_search_stars);
+        let max_angle = self.pairs.max_angle_rad() - eps;
+        let stride = self.stride;
+        let s = stars.min(stride);
         let obs = self.obs[0];
-        let search: Vec<usize> = self.order[..s].to_vec();
-        if angle.len() != s * s {
-            angle.clear();
-            angle.resize(s * s, f64::NAN);
-        }
+        let order: &[usize] = self.order;
+        let search = &order[..s];
         // Angles are computed when a triangle first needs them (most frames stop after a few
         // triangles, long before all s² pairs are visited).
         let mut pair_angle = |a: usize, b: usize| -> f64 {
-            let t = angle[a * s + b];
+            let t = angle[a * stride + b];
             if !t.is_nan() {
                 return t;
             }
             let t = crate::geometry::angle_between(&obs[search[a]], &obs[search[b]]);
-            angle[a * s + b] = t;
-            angle[b * s + a] = t;
+            angle[a * stride + b] = t;
+            angle[b * stride + a] = t;
             t
         };
         let mut tried = 0usize;
@@ -709,7 +775,7 @@ impl Search<'_> {
         out: &mut Vec<[u32; 3]>,
     ) {
         out.clear();
-        let idx = &self.solver.pairs;
+        let idx = self.pairs;
         let (r_ij, r_ik, r_jk) = (
             idx.range(t_ij - eps, t_ij + eps),
             idx.range(t_ik - eps, t_ik + eps),
@@ -776,8 +842,7 @@ impl Search<'_> {
         (radius, needed): (f64, usize),
         sigma_rad: f64,
     ) -> bool {
-        let cat = self.solver.catalog.vectors();
-        let zones = self.solver.catalog.zones();
+        let catalog = &*self.solver.catalog;
         let radius = Radius::new(radius);
         let mut remaining = self.order.len() - 3;
         let mut found = 0;
@@ -787,7 +852,7 @@ impl Search<'_> {
             }
             remaining -= 1;
             let w = r.inverse_transform_vector(&obs[o]);
-            if let Some((star, _)) = unambiguous_nearest(zones, cat, &w, radius, sigma_rad) {
+            if let Some((star, _)) = unambiguous_nearest(catalog, &w, radius, sigma_rad) {
                 if !used_cat.contains(&star) {
                     found += 1;
                     if found >= needed {
@@ -869,15 +934,15 @@ impl Search<'_> {
         radius: f64,
         sigma_rad: f64,
     ) -> usize {
-        let cat = self.solver.catalog.vectors();
-        let zones = self.solver.catalog.zones();
+        let catalog = &*self.solver.catalog;
+        let cat = catalog.vectors();
         let radius = Radius::new(radius);
         let s = &mut self.scratch;
         s.matches.clear();
         s.claim.clear();
         for (o, v) in obs.iter().enumerate() {
             let w = r.inverse_transform_vector(v);
-            let m = unambiguous_nearest(zones, cat, &w, radius, sigma_rad);
+            let m = unambiguous_nearest(catalog, &w, radius, sigma_rad);
             if let Some((star, d)) = m {
                 s.claim.push((star, o as u32, d));
             }
@@ -929,13 +994,13 @@ const AMBIGUITY_LOG_ODDS: f64 = 6.907755278982137;
 /// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as likely
 /// (see [`AMBIGUITY_LOG_ODDS`]): an ambiguous match is no match.
 fn unambiguous_nearest(
-    zones: &crate::sky::ZoneIndex,
-    cat: &[Vector3<f64>],
+    catalog: &Catalog,
     w: &Vector3<f64>,
     radius: Radius,
     sigma_rad: f64,
 ) -> Option<(u32, f64)> {
-    let (best, second) = zones.nearest_two_within(cat, w, radius);
+    let cat = catalog.vectors();
+    let (best, second) = catalog.nearest_two(w, radius);
     let (star, _) = best?;
     // Match radii are far below a degree: the sine of the angle (|w × c|, no libm call) is the
     // angle to better than 1e-5 relative there.

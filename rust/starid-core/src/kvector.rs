@@ -43,6 +43,24 @@ impl PairIndex {
     /// # Errors
     /// `InvalidInput` when the angle is not in (0, π) or the index would exceed [`MAX_PAIRS`].
     pub fn build(catalog: &Catalog, max_angle_rad: f64) -> Result<Self> {
+        Self::build_among(catalog, max_angle_rad, None)
+    }
+
+    /// Index the pairs of `catalog` separated by at most `max_angle_rad` whose two stars are
+    /// both `members` (`None`: every star). Pairs keep the catalogue's star indices.
+    ///
+    /// # Errors
+    /// As [`PairIndex::build`]; `InvalidInput` when `members` does not have one entry per star.
+    pub fn build_among(
+        catalog: &Catalog,
+        max_angle_rad: f64,
+        members: Option<&[bool]>,
+    ) -> Result<Self> {
+        if members.is_some_and(|m| m.len() != catalog.len()) {
+            return Err(Error::invalid_input(
+                "members must hold one flag per catalogue star",
+            ));
+        }
         if !max_angle_rad.is_finite()
             || max_angle_rad <= 0.0
             || max_angle_rad >= std::f64::consts::PI
@@ -52,7 +70,7 @@ impl PairIndex {
                 max_angle_rad.to_degrees()
             )));
         }
-        let n = catalog.len() as f64;
+        let n = members.map_or(catalog.len(), |m| m.iter().filter(|&&x| x).count()) as f64;
         let expected = 0.25 * n * n * (1.0 - max_angle_rad.cos());
         if expected > MAX_PAIRS as f64 {
             return Err(Error::invalid_input(format!(
@@ -64,7 +82,7 @@ impl PairIndex {
                 MAX_PAIRS
             )));
         }
-        let mut entries = neighbour_pairs(catalog, max_angle_rad);
+        let mut entries = neighbour_pairs(catalog, max_angle_rad, members);
         entries.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let angles: Vec<f32> = entries.iter().map(|e| e.0).collect();
         let pairs: Vec<[u32; 2]> = entries.into_iter().map(|e| e.1).collect();
@@ -189,16 +207,24 @@ impl PairIndex {
     }
 }
 
-/// Every pair within `max_angle_rad`, found through the catalogue's zone index.
-fn neighbour_pairs(catalog: &Catalog, max_angle_rad: f64) -> Vec<(f32, [u32; 2])> {
+/// Every pair of members within `max_angle_rad`, found through the catalogue's zone index.
+fn neighbour_pairs(
+    catalog: &Catalog,
+    max_angle_rad: f64,
+    members: Option<&[bool]>,
+) -> Vec<(f32, [u32; 2])> {
     let vectors = catalog.vectors();
+    let member = |i: usize| members.is_none_or(|m| m[i]);
     let per_star = |i: usize| -> Vec<(f32, [u32; 2])> {
         let mut out = Vec::new();
+        if !member(i) {
+            return out;
+        }
         let vi: &Vector3<f64> = &vectors[i];
         catalog
             .zones()
             .for_each_in_cone(vectors, vi, max_angle_rad, |j, _| {
-                if (j as usize) > i {
+                if (j as usize) > i && member(j as usize) {
                     let angle = crate::geometry::angle_between(vi, &vectors[j as usize]);
                     if angle <= max_angle_rad {
                         out.push((angle as f32, [i as u32, j]));

@@ -205,6 +205,125 @@ impl ZoneIndex {
     }
 }
 
+/// Largest radius [`CellIndex::nearest_two_within`] answers (about 2.9°); the bound on the
+/// gnomonic stretch below holds up to it.
+pub const CELL_QUERY_MAX_RAD: f64 = 0.05;
+
+/// Cube-face grid over a set of unit vectors, for nearest-star queries of small radius without
+/// trigonometry: a direction's face is its largest component, its cell the gnomonic coordinates
+/// `(u, w) = (b / |a|, c / |a|)` on that face cut into `G × G` squares. Each cell keeps copies of
+/// its stars' vectors next to each other, so a query reads a few contiguous entries.
+///
+/// A query whose search box would leave its face is not answered (`None`): the caller falls
+/// back to the [`ZoneIndex`]. That happens only within the radius of a face edge.
+#[derive(Debug, Clone)]
+pub struct CellIndex {
+    cells_per_edge: usize,
+    /// `cell_start[c]..cell_start[c + 1]` are the slots of cell `c` in `stars` / `vectors`.
+    cell_start: Vec<u32>,
+    stars: Vec<u32>,
+    vectors: Vec<Vector3<f64>>,
+}
+
+/// Face (0..6) of a direction and its gnomonic coordinates on that face.
+#[inline]
+fn cube_face(v: &Vector3<f64>) -> (usize, f64, f64) {
+    let (ax, ay, az) = (v.x.abs(), v.y.abs(), v.z.abs());
+    if ax >= ay && ax >= az {
+        (usize::from(v.x < 0.0), v.y / ax, v.z / ax)
+    } else if ay >= az {
+        (2 + usize::from(v.y < 0.0), v.z / ay, v.x / ay)
+    } else {
+        (4 + usize::from(v.z < 0.0), v.x / az, v.y / az)
+    }
+}
+
+impl CellIndex {
+    /// Build over `vectors` (unit vectors), about two stars per cell.
+    pub fn new(vectors: &[Vector3<f64>]) -> Self {
+        let g = ((vectors.len() as f64 / 12.0).sqrt().round() as usize).clamp(1, 512);
+        let cell_of = |v: &Vector3<f64>| {
+            let (face, u, w) = cube_face(v);
+            let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64) as usize).min(g - 1);
+            (face * g + gi(u)) * g + gi(w)
+        };
+        let cells: Vec<usize> = vectors.iter().map(cell_of).collect();
+        let mut cell_start = vec![0u32; 6 * g * g + 1];
+        for &c in &cells {
+            cell_start[c + 1] += 1;
+        }
+        for c in 0..6 * g * g {
+            cell_start[c + 1] += cell_start[c];
+        }
+        let mut fill = cell_start.clone();
+        let mut stars = vec![0u32; vectors.len()];
+        for (i, &c) in cells.iter().enumerate() {
+            stars[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        let vectors = stars.iter().map(|&s| vectors[s as usize]).collect();
+        Self {
+            cells_per_edge: g,
+            cell_start,
+            stars,
+            vectors,
+        }
+    }
+
+    /// Heap memory in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.cell_start.len() * 4 + self.stars.len() * 4 + self.vectors.len() * 24
+    }
+
+    /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
+    /// `(index, cos_angle)`; `None` when the grid cannot answer (the radius exceeds
+    /// [`CELL_QUERY_MAX_RAD`] or the search box leaves the face).
+    #[inline]
+    pub fn nearest_two_within(
+        &self,
+        center: &Vector3<f64>,
+        radius: Radius,
+    ) -> Option<(Option<Hit>, Option<Hit>)> {
+        if radius.rad > CELL_QUERY_MAX_RAD {
+            return None;
+        }
+        let (face, u, w) = cube_face(center);
+        // A great-circle arc maps to a segment whose length is at most the arc times the largest
+        // stretch sec²ρ along it (ρ: angle from the face centre); sec²ρ = 1 + u² + w² at the
+        // centre and grows by less than a factor 1 + 4r over an arc r ≤ 0.05 (tan ρ < 1.6).
+        let h = radius.rad * (1.0 + u * u + w * w) * (1.0 + 4.0 * radius.rad) + 1e-12;
+        if u - h <= -1.0 || u + h >= 1.0 || w - h <= -1.0 || w + h >= 1.0 {
+            return None;
+        }
+        let g = self.cells_per_edge;
+        let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64) as usize).min(g - 1);
+        let (u0, u1, w0, w1) = (gi(u - h), gi(u + h), gi(w - h), gi(w + h));
+        let mut best: Option<Hit> = None;
+        let mut second: Option<Hit> = None;
+        for cu in u0..=u1 {
+            let row = (face * g + cu) * g;
+            let (a, b) = (
+                self.cell_start[row + w0] as usize,
+                self.cell_start[row + w1 + 1] as usize,
+            );
+            for slot in a..b {
+                let c = self.vectors[slot].dot(center);
+                if c < radius.cos {
+                    continue;
+                }
+                let hit = (self.stars[slot], c);
+                if best.is_none_or(|b| c > b.1) {
+                    second = best;
+                    best = Some(hit);
+                } else if second.is_none_or(|s| c > s.1) {
+                    second = Some(hit);
+                }
+            }
+        }
+        Some((best, second))
+    }
+}
+
 #[inline]
 fn zone_of(dec_rad: f64, zone_height_rad: f64, n_zones: usize) -> usize {
     (((dec_rad + FRAC_PI_2) / zone_height_rad) as usize).min(n_zones - 1)
@@ -271,5 +390,53 @@ mod tests {
             assert_eq!(best.map(|b| b.0), all.first().map(|a| a.1));
             assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1));
         }
+    }
+    #[test]
+    fn cell_queries_match_brute_force_across_faces_and_corners() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let v: Vec<_> = (0..8000)
+            .map(|_| {
+                radec_to_unit(
+                    rng.random_range(0.0..TAU),
+                    rng.random_range(-1.0f64..1.0).asin(),
+                )
+            })
+            .collect();
+        let cells = CellIndex::new(&v);
+        let mut answered = 0;
+        for q in 0..20_000 {
+            // Half the queries next to a star (a match), half near cube edges and corners.
+            let c = if q % 2 == 0 {
+                let s = v[rng.random_range(0..v.len())];
+                (s + Vector3::from_fn(|_, _| rng.random_range(-1e-3..1e-3))).normalize()
+            } else {
+                let t = 1.0 + rng.random_range(-0.02f64..0.02);
+                Vector3::new(
+                    t,
+                    rng.random_range(-1.0..1.0),
+                    1.0 - rng.random_range(0.0..0.03),
+                )
+                .normalize()
+            };
+            let radius = Radius::new(rng.random_range(1e-5..0.06));
+            let mut all: Vec<(f64, u32)> = (0..v.len() as u32)
+                .map(|i| (v[i as usize].dot(&c), i))
+                .filter(|&(d, _)| d >= radius.cos)
+                .collect();
+            all.sort_by(|a, b| b.0.total_cmp(&a.0));
+            if let Some((best, second)) = cells.nearest_two_within(&c, radius) {
+                answered += 1;
+                assert_eq!(best.map(|b| b.0), all.first().map(|a| a.1));
+                assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1));
+            } else {
+                assert!(
+                    radius.rad > CELL_QUERY_MAX_RAD || {
+                        let (_, u, w) = cube_face(&c);
+                        1.0 - u.abs().max(w.abs()) < 0.2
+                    }
+                );
+            }
+        }
+        assert!(answered > 7_000, "{answered}");
     }
 }

@@ -31,6 +31,7 @@ use crate::identify::{
     binomial_tail, validate_centroids, Identification, IdentifyConfig, Solver, Status,
 };
 use crate::pointing::{focal_for_angle, refine_pointing, CameraModel, PointingFit, RefineOptions};
+use crate::sky::Radius;
 
 /// Most focal-length hypotheses handed to the fixed-focal identification per frame.
 pub const MAX_FOCAL_HYPOTHESES: usize = 8;
@@ -347,7 +348,6 @@ impl FocalSearch<'_> {
         self.base_pairs += range.len();
         let catalog = self.solver.catalog();
         let vectors = catalog.vectors();
-        let zones = catalog.zones();
         let reach = (d(p, r) + d(q, r)) / base;
         let mut found = Vec::new();
         for (pair, &angle) in index.pairs(range.clone()).iter().zip(index.angles(range)) {
@@ -374,7 +374,8 @@ impl FocalSearch<'_> {
                         continue;
                     };
                     let predicted = rot.inverse_transform_vector(&rr);
-                    let (Some((cc, _)), _) = zones.nearest_two(vectors, &predicted, radius) else {
+                    let (Some((cc, _)), _) = catalog.nearest_two(&predicted, Radius::new(radius))
+                    else {
                         continue;
                     };
                     if cc == ca || cc == cb {
@@ -426,7 +427,8 @@ impl FocalSearch<'_> {
         if needed == 0 {
             return Some(f3);
         }
-        let zones = self.solver.catalog().zones();
+        let catalog = self.solver.catalog();
+        let zones = catalog.zones();
         let mut hits: Vec<(usize, u32)> = Vec::new();
         let mut misses = 0;
         for &l in others {
@@ -436,7 +438,7 @@ impl FocalSearch<'_> {
                 .fold(0.0, f64::max);
             let radius = 3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach / longest) / f3;
             let predicted = rot.inverse_transform_vector(&self.ray(l, f3, mirrored));
-            match zones.nearest_two(vectors, &predicted, radius) {
+            match catalog.nearest_two(&predicted, Radius::new(radius)) {
                 (Some((c, _)), _) if !cat.contains(&c) && hits.iter().all(|h| h.1 != c) => {
                     hits.push((l, c));
                 }

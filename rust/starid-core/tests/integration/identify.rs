@@ -25,6 +25,26 @@ struct Survey {
     wrong_solutions: usize,
     ids: usize,
     wrong_ids: usize,
+    /// Hypotheses tested per eligible frame.
+    hypotheses: Vec<usize>,
+}
+
+impl Survey {
+    fn median_hypotheses(&self) -> usize {
+        let mut h = self.hypotheses.clone();
+        h.sort_unstable();
+        h[h.len() / 2]
+    }
+}
+
+/// What the identifier is told of the stars' brightness.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Magnitudes {
+    None,
+    /// The simulated magnitudes.
+    Given,
+    /// Their negatives: the faintest star looks brightest.
+    Reversed,
 }
 
 fn survey(
@@ -33,6 +53,16 @@ fn survey(
     sim: &SimConfig,
     seeds: std::ops::Range<u64>,
 ) -> Survey {
+    survey_with(solver, camera, sim, seeds, Magnitudes::None)
+}
+
+fn survey_with(
+    solver: &Solver,
+    camera: &Camera,
+    sim: &SimConfig,
+    seeds: std::ops::Range<u64>,
+    magnitudes: Magnitudes,
+) -> Survey {
     let mut s = Survey::default();
     for seed in seeds {
         let f = simulate(solver.catalog(), camera, sim, seed).unwrap();
@@ -40,9 +70,20 @@ fn survey(
             continue;
         }
         s.eligible += 1;
+        let mags: Option<Vec<f64>> = match magnitudes {
+            Magnitudes::None => None,
+            Magnitudes::Given => Some(f.magnitudes.clone()),
+            Magnitudes::Reversed => Some(f.magnitudes.iter().map(|m| -m).collect()),
+        };
         let r = solver
-            .identify(&f.centroids, None, camera, &IdentifyConfig::default())
+            .identify(
+                &f.centroids,
+                mags.as_deref(),
+                camera,
+                &IdentifyConfig::default(),
+            )
             .unwrap();
+        s.hypotheses.push(r.hypotheses);
         if r.is_identified() {
             s.identified += 1;
             s.ids += r.matched;
@@ -115,6 +156,31 @@ fn clean_frames_are_all_identified() {
         "every frame with 4+ stars identified: {s:?}"
     );
     assert_eq!((s.wrong_solutions, s.wrong_ids), (0, 0), "{s:?}");
+}
+
+#[test]
+fn with_magnitudes_the_locally_bright_stars_are_searched_first() {
+    // Frames to magnitude 6 against the catalogue to 6.5, magnitudes with 0.1 mag of noise:
+    // the brightest stars are locally bright catalogue stars, found in the small index at once.
+    let camera = camera_12();
+    let bright = solver_12()
+        .bright_pair_index()
+        .expect("a bright-star index");
+    assert!(bright.len() * 8 < solver_12().pair_index().len());
+    let sim = SimConfig {
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        mag_limit: Some(6.0),
+        ..Default::default()
+    };
+    let s = survey_with(solver_12(), &camera, &sim, 0..300, Magnitudes::Given);
+    assert_eq!(s.identified, s.eligible, "{s:?}");
+    assert_eq!((s.wrong_solutions, s.wrong_ids), (0, 0), "{s:?}");
+    assert_eq!(s.median_hypotheses(), 1, "{s:?}");
+    // Misleading magnitudes only cost time: the whole index still finds every frame.
+    let r = survey_with(solver_12(), &camera, &sim, 0..300, Magnitudes::Reversed);
+    assert_eq!(r.identified, r.eligible, "{r:?}");
+    assert_eq!((r.wrong_solutions, r.wrong_ids), (0, 0), "{r:?}");
 }
 
 #[test]

@@ -42,6 +42,44 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(config())]
+
+    /// An index among some stars holds exactly the pairs of the full index whose two stars are
+    /// members, and locally bright stars are those with fewer than k brighter within the radius.
+    #[test]
+    fn index_among_members_and_locally_bright_stars(
+        n in 2usize..400,
+        seed in any::<u64>(),
+        max_angle in 0.05f64..0.8,
+        k in 1usize..8,
+    ) {
+        let cat = random_catalog(n, 1.0, 6.0, seed).unwrap();
+        let radius = 0.5 * max_angle;
+        let bright = cat.locally_bright(radius, k);
+        let v = cat.vectors();
+        let m = cat.mag();
+        for i in 0..n {
+            let brighter = (0..n)
+                .filter(|&j| j != i && angle_between(&v[i], &v[j]) <= radius)
+                .filter(|&j| m[j] < m[i] || (m[j] == m[i] && j < i))
+                .count();
+            prop_assert_eq!(bright[i], brighter < k, "star {}", i);
+        }
+        let full = PairIndex::build(&cat, max_angle).unwrap();
+        let among = PairIndex::build_among(&cat, max_angle, Some(&bright)).unwrap();
+        let want: BTreeSet<[u32; 2]> = full
+            .pairs(0..full.len())
+            .iter()
+            .filter(|p| bright[p[0] as usize] && bright[p[1] as usize])
+            .copied()
+            .collect();
+        let got: BTreeSet<[u32; 2]> = among.pairs(0..among.len()).iter().copied().collect();
+        prop_assert_eq!(got, want);
+        prop_assert!(PairIndex::build_among(&cat, max_angle, Some(&bright[1..])).is_err());
+    }
+}
+
 #[test]
 fn rejects_absurd_angles_and_oversized_indexes() {
     let cat = random_catalog(100, 1.0, 6.0, 1).unwrap();
