@@ -106,3 +106,23 @@ def test_threads_share_a_catalogue(contest: starid.Catalog) -> None:
 def test_index_info(contest: starid.Catalog) -> None:
     info = contest.index_info(12.0, (512, 512))
     assert info["pairs"] > 100_000 and info["memory_bytes"] < 5_000_000
+
+
+def test_results_are_immutable_and_pickle() -> None:
+    import pickle
+
+    f = starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=4, noise_px=0.2)
+    for res in (
+        starid.identify(f.xy, fov_deg=12.0, image_size=(512, 512)),
+        starid.identify(f.xy[:5] * 0 + np.arange(5)[:, None] * [97.0, 41.0], fov_deg=12.0, image_size=(512, 512)),
+        starid.identify(f.xy, image_size=(512, 512), fov_range_deg=(10.0, 14.0)),
+    ):
+        with pytest.raises(AttributeError):
+            res.ok = not res.ok  # type: ignore[misc]
+        back = pickle.loads(pickle.dumps(res))
+        assert type(back) is starid.Identification
+        assert json.dumps(back.to_dict()) == json.dumps(res.to_dict())
+        assert repr(back) == repr(res)
+    assert res.ok and not np.isnan(res.focal_sigma_px)
+    with pytest.raises(ValueError, match="status"):
+        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 6, 0))

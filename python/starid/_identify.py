@@ -20,102 +20,8 @@ __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "iden
 CatalogLike = Union[Catalog, str, "os.PathLike[str]", None]
 
 
-@dataclass(frozen=True, repr=False)
-class Identification:
-    """The result of identifying one frame.
-
-    Attributes
-    ----------
-    ids : ndarray of int64
-        Catalogue id of each input centroid, in input order; -1 where unidentified.
-    ok : bool
-        Whether a verified solution was found. When False every id is -1.
-    status : str
-        ``"identified"``, ``"no_match"``, ``"search_limit"`` (a search budget ran out) or ``"timeout"``.
-    ra_deg, dec_deg, roll_deg : float
-        Boresight and roll (NaN unless ``ok``). At roll 0 image-up (−y) points to celestial
-        north and east is left; increasing roll turns the camera's +x axis toward +y.
-    quaternion : ndarray (4,) or None
-        Rotation ICRS → camera as ``[w, x, y, z]`` (scalar first, w >= 0).
-    rotation_matrix : ndarray (3, 3) or None
-        ``v_cam = R @ v_icrs``; its rows are the camera axes in ICRS.
-    residuals_arcsec : ndarray of float
-        Angle between each centroid's direction and its catalogue star; NaN where unidentified.
-    mirrored : bool
-        The frame is mirrored (an odd number of reflections). The attitude is then that of the
-        image with its x axis reversed (``x -> W - x``).
-    false_match_probability : float
-        Bound on the probability that this solution is a false match (1 when not ``ok``).
-    n_matched : int
-        Number of identified centroids.
-    centroid_sigma_px : float
-        Centroid noise estimated from the residuals (1 sigma per axis, pixels).
-    time_s : float
-        Time spent identifying (inside the Rust core; excludes Python overhead).
-    fov_deg, focal_px : float
-        The camera's field of view across the width and its focal length in pixels: the given
-        ones, or, when the field of view was unknown, the estimates (NaN when not ``ok``).
-    focal_sigma_px : float
-        1 sigma of the estimated focal length (NaN when the field of view was given).
-    """
-
-    ids: npt.NDArray[np.int64]
-    ok: bool
-    status: str
-    ra_deg: float
-    dec_deg: float
-    roll_deg: float
-    quaternion: Optional[npt.NDArray[np.float64]]
-    rotation_matrix: Optional[npt.NDArray[np.float64]]
-    residuals_arcsec: npt.NDArray[np.float64]
-    mirrored: bool
-    false_match_probability: float
-    n_matched: int
-    centroid_sigma_px: float
-    match_radius_arcsec: float
-    hypotheses: int
-    time_s: float
-    fov_deg: float
-    focal_px: float
-    focal_sigma_px: float
-
-    @classmethod
-    def _from_native(cls, d: dict[str, Any]) -> "Identification":
-        return cls(**d)
-
-    @property
-    def boresight_radec_deg(self) -> tuple[float, float]:
-        """``(ra_deg, dec_deg)`` of the boresight."""
-        return (self.ra_deg, self.dec_deg)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain Python values (lists, floats, None), ready for ``json.dumps``."""
-        out: dict[str, Any] = {}
-        for k in self.__dataclass_fields__:
-            v = getattr(self, k)
-            if isinstance(v, np.ndarray):
-                v = [None if isinstance(x, float) and math.isnan(x) else x for x in v.tolist()]
-            elif isinstance(v, float) and math.isnan(v):
-                v = None
-            out[k] = v
-        return out
-
-    def __repr__(self) -> str:
-        n = len(self.ids)
-        if not self.ok:
-            return (
-                f"Identification(ok=False, status={self.status!r}, 0/{n} stars identified, "
-                f"{self.hypotheses} hypotheses, time {self.time_s * 1e3:.3f} ms)"
-            )
-        rms = float(np.sqrt(np.nanmean(self.residuals_arcsec**2)))
-        return (
-            f"Identification(ok=True, {self.n_matched}/{n} stars identified, "
-            f"ra={self.ra_deg:.5f} deg, dec={self.dec_deg:+.5f} deg, roll={self.roll_deg:.4f} deg, "
-            f"mirrored={self.mirrored}, "
-            + (f"fov={self.fov_deg:.4f} deg (estimated), " if not math.isnan(self.focal_sigma_px) else "")
-            + f"rms residual {rms:.2f} arcsec, "
-            f"P(false match) <= {self.false_match_probability:.1e}, time {self.time_s * 1e3:.3f} ms)"
-        )
+#: The result of :func:`identify`: a native, immutable class (see its docstring for the fields).
+Identification = _starid.Identification
 
 
 @dataclass(frozen=True)
@@ -338,11 +244,11 @@ def identify(
     )
     if fov_deg is None:
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
-        return Identification._from_native(_starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg))
+        return _starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg)
     if fov_range_deg is not None:
         raise ValueError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
     fov = _fov(fov_deg)
-    return Identification._from_native(_starid.identify(cat._native, a, m, w, h, fov, cfg))
+    return _starid.identify(cat._native, a, m, w, h, fov, cfg)
 
 
 def identify_many(
@@ -390,8 +296,7 @@ def identify_many(
     cfg = _config(
         centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored, timeout_s
     )
-    out = _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
-    return [Identification._from_native(d) for d in out]
+    return _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
 
 
 def simulate(

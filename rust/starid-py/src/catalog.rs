@@ -150,7 +150,11 @@ impl PyCatalog {
         let d = PyDict::new(py);
         d.set_item("pairs", s.pair_index().len())?;
         d.set_item("max_angle_deg", s.pair_index().max_angle_rad().to_degrees())?;
-        d.set_item("memory_bytes", s.pair_index().memory_bytes())?;
+        d.set_item(
+            "bright_pairs",
+            s.bright_pair_index().map_or(0, starid_core::PairIndex::len),
+        )?;
+        d.set_item("memory_bytes", s.memory_bytes())?;
         d.set_item("build_time_s", s.build_time().as_secs_f64())?;
         Ok(d)
     }

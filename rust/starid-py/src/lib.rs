@@ -18,11 +18,12 @@ use std::sync::Arc;
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::PyDict;
 use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
 
 use crate::catalog::PyCatalog;
 use crate::errors::{CatalogError, PyStaridError, StaridError};
+use crate::outcome::PyIdentification;
 
 /// Run core work with the GIL released and turn its error into the matching Python exception.
 pub fn run_core<T, F>(py: Python<'_>, f: F) -> PyResult<T>
@@ -122,7 +123,7 @@ pub(crate) fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Ca
     Camera::from_fov(fov_deg.to_radians(), width_px, height_px).map_err(|e| PyStaridError(e).into())
 }
 
-/// Identify one frame; returns a dict of plain values and numpy arrays.
+/// Identify one frame.
 #[pyfunction]
 #[pyo3(signature = (catalog, xy, magnitudes, width_px, height_px, fov_deg, config))]
 fn identify<'py>(
@@ -134,7 +135,7 @@ fn identify<'py>(
     height_px: f64,
     fov_deg: f64,
     config: &Bound<'py, PyIdentifyConfig>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyIdentification> {
     let cam = camera(fov_deg, width_px, height_px)?;
     let centroids = convert::centroids("xy", &xy)?;
     let mags = magnitudes
@@ -145,7 +146,12 @@ fn identify<'py>(
     let id = run_core(py, move || {
         solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
     })?;
-    outcome::identification(py, &catalog.get().inner, &id, &cam)
+    Ok(PyIdentification::new(
+        &catalog.get().inner,
+        &id,
+        &cam,
+        f64::NAN,
+    ))
 }
 
 /// Identify many frames of one camera in parallel (GIL released); results in input order.
@@ -162,7 +168,7 @@ fn identify_many<'py>(
     fov_deg: f64,
     config: &Bound<'py, PyIdentifyConfig>,
     threads: Option<usize>,
-) -> PyResult<Bound<'py, PyList>> {
+) -> PyResult<Vec<PyIdentification>> {
     if threads == Some(0) {
         return Err(PyValueError::new_err(
             "threads must be at least 1 (or None for all cores)",
@@ -206,11 +212,11 @@ fn identify_many<'py>(
             .collect();
         solver.identify_batch(&refs, &cam, &cfg, threads)
     })?;
-    let out = PyList::empty(py);
-    for id in &results {
-        out.append(outcome::identification(py, &catalog.get().inner, id, &cam)?)?;
-    }
-    Ok(out)
+    let cat = &catalog.get().inner;
+    Ok(results
+        .iter()
+        .map(|id| PyIdentification::new(cat, id, &cam, f64::NAN))
+        .collect())
 }
 
 /// Simulate one frame; returns a dict with the centroids and the truth.
@@ -271,6 +277,7 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyCatalog>()?;
     m.add_class::<PyIdentifyConfig>()?;
+    m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify_many, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;

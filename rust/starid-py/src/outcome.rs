@@ -1,54 +1,43 @@
-//! Core results → Python dicts of plain values and numpy arrays (moved, not copied).
+//! Core results → Python: the native `Identification` class, and dicts of plain values and numpy
+//! arrays (moved, not copied) for simulated frames and pointing fits.
 
 use nalgebra::{Rotation3, UnitQuaternion};
 use numpy::ndarray::Array2;
-use numpy::IntoPyArray;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
-use starid_core::{geometry, Camera, Catalog, Identification, SimFrame};
+use starid_core::{geometry, Camera, Catalog, Identification, SimFrame, Status};
 
 const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+
+/// `[w, x, y, z]` of a rotation, w ≥ 0.
+fn quaternion_wxyz(r: &Rotation3<f64>) -> [f64; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(r);
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
+/// A rotation's 3×3 matrix as an ndarray.
+fn matrix3(r: &Rotation3<f64>) -> Array2<f64> {
+    let m = r.matrix();
+    Array2::from_shape_fn((3, 3), |(i, j)| m[(i, j)])
+}
 
 /// `rotation_matrix` (3×3) and `quaternion` (`[w, x, y, z]`, w ≥ 0) of a rotation.
 pub fn put_rotation(d: &Bound<'_, PyDict>, r: &Rotation3<f64>) -> PyResult<()> {
     let py = d.py();
-    let m = r.matrix();
-    let flat: Vec<f64> = (0..3)
-        .flat_map(|i| (0..3).map(move |j| m[(i, j)]))
-        .collect();
-    d.set_item(
-        "rotation_matrix",
-        Array2::from_shape_vec((3, 3), flat)
-            .expect("3x3")
-            .into_pyarray(py),
-    )?;
-    let q = UnitQuaternion::from_rotation_matrix(r);
-    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
-    d.set_item(
-        "quaternion",
-        vec![s * q.w, s * q.i, s * q.j, s * q.k].into_pyarray(py),
-    )
+    d.set_item("rotation_matrix", matrix3(r).into_pyarray(py))?;
+    d.set_item("quaternion", quaternion_wxyz(r).to_vec().into_pyarray(py))
 }
 
-fn put_attitude(d: &Bound<'_, PyDict>, r: Option<&Rotation3<f64>>) -> PyResult<()> {
-    let py = d.py();
-    match r {
-        Some(r) => {
-            let (ra, dec, roll) = geometry::radec_roll_from_attitude(r);
-            d.set_item("ra_deg", ra.to_degrees())?;
-            d.set_item("dec_deg", dec.to_degrees())?;
-            d.set_item("roll_deg", roll.to_degrees())?;
-            put_rotation(d, r)?;
-        }
-        None => {
-            d.set_item("ra_deg", f64::NAN)?;
-            d.set_item("dec_deg", f64::NAN)?;
-            d.set_item("roll_deg", f64::NAN)?;
-            d.set_item("rotation_matrix", py.None())?;
-            d.set_item("quaternion", py.None())?;
-        }
-    }
-    Ok(())
+fn put_attitude(d: &Bound<'_, PyDict>, r: &Rotation3<f64>) -> PyResult<()> {
+    let (ra, dec, roll) = geometry::radec_roll_from_attitude(r);
+    d.set_item("ra_deg", ra.to_degrees())?;
+    d.set_item("dec_deg", dec.to_degrees())?;
+    d.set_item("roll_deg", roll.to_degrees())?;
+    put_rotation(d, r)
 }
 
 fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
@@ -58,36 +47,389 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
         .collect()
 }
 
-pub fn identification<'py>(
-    py: Python<'py>,
-    catalog: &Catalog,
-    id: &Identification,
-    camera: &Camera,
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("ok", id.is_identified())?;
-    d.set_item("status", id.status.as_str())?;
-    d.set_item("ids", ids_of(catalog, &id.catalog_index).into_pyarray(py))?;
-    d.set_item("mirrored", id.mirrored)?;
-    put_attitude(&d, id.r_icrs_to_cam.as_ref())?;
-    d.set_item(
-        "residuals_arcsec",
-        id.residuals_rad
+/// The result of identifying one frame (immutable).
+///
+/// Attributes
+/// ----------
+/// ids : ndarray of int64
+///     Catalogue id of each input centroid, in input order; -1 where unidentified.
+/// ok : bool
+///     Whether a verified solution was found. When False every id is -1.
+/// status : str
+///     ``"identified"``, ``"no_match"``, ``"search_limit"`` (a search budget ran out) or ``"timeout"``.
+/// ra_deg, dec_deg, roll_deg : float
+///     Boresight and roll (NaN unless ``ok``). At roll 0 image-up (-y) points to celestial
+///     north and east is left; increasing roll turns the camera's +x axis toward +y.
+/// boresight_radec_deg : (float, float)
+///     ``(ra_deg, dec_deg)``.
+/// quaternion : ndarray (4,) or None
+///     Rotation ICRS -> camera as ``[w, x, y, z]`` (scalar first, w >= 0).
+/// rotation_matrix : ndarray (3, 3) or None
+///     ``v_cam = R @ v_icrs``; its rows are the camera axes in ICRS.
+/// residuals_arcsec : ndarray of float
+///     Angle between each centroid's direction and its catalogue star; NaN where unidentified.
+/// mirrored : bool
+///     The frame is mirrored (an odd number of reflections). The attitude is then that of the
+///     image with its x axis reversed (``x -> W - x``).
+/// false_match_probability : float
+///     Bound on the probability that this solution is a false match (1 when not ``ok``).
+/// n_matched : int
+///     Number of identified centroids.
+/// centroid_sigma_px : float
+///     Centroid noise estimated from the residuals (1 sigma per axis, pixels).
+/// match_radius_arcsec : float
+///     Radius within which centroids were matched to stars.
+/// hypotheses : int
+///     Catalogue-triangle hypotheses tested.
+/// time_s : float
+///     Time spent identifying (inside the Rust core; excludes Python overhead).
+/// fov_deg, focal_px : float
+///     The camera's field of view across the width and its focal length in pixels: the given
+///     ones, or, when the field of view was unknown, the estimates (NaN when not ``ok``).
+/// focal_sigma_px : float
+///     1 sigma of the estimated focal length (NaN when the field of view was given).
+///
+/// Plain values are computed once; the arrays are made on first access and kept, so a call
+/// builds no dict and runs no Python constructor.
+#[pyclass(frozen, name = "Identification", module = "starid")]
+pub struct PyIdentification {
+    status: &'static str,
+    ids: Vec<i64>,
+    residuals_arcsec: Vec<f64>,
+    rotation: Option<Rotation3<f64>>,
+    mirrored: bool,
+    false_match_probability: f64,
+    n_matched: usize,
+    centroid_sigma_px: f64,
+    match_radius_arcsec: f64,
+    hypotheses: usize,
+    time_s: f64,
+    fov_deg: f64,
+    focal_px: f64,
+    focal_sigma_px: f64,
+    ids_array: PyOnceLock<Py<PyArray1<i64>>>,
+    residuals_array: PyOnceLock<Py<PyArray1<f64>>>,
+}
+
+impl PyIdentification {
+    /// From a core result; `camera` is the one used (or estimated), `focal_sigma_px` the 1σ of
+    /// an estimated focal length (NaN when it was given).
+    pub fn new(
+        catalog: &Catalog,
+        id: &Identification,
+        camera: &Camera,
+        focal_sigma_px: f64,
+    ) -> Self {
+        Self {
+            status: id.status.as_str(),
+            ids: ids_of(catalog, &id.catalog_index),
+            residuals_arcsec: id
+                .residuals_rad
+                .iter()
+                .map(|r| r * ARCSEC_PER_RAD)
+                .collect(),
+            rotation: id.r_icrs_to_cam,
+            mirrored: id.mirrored,
+            false_match_probability: id.false_match_probability,
+            n_matched: id.matched,
+            centroid_sigma_px: id.centroid_sigma_px,
+            match_radius_arcsec: id.match_radius_rad * ARCSEC_PER_RAD,
+            hypotheses: id.hypotheses,
+            time_s: id.elapsed.as_secs_f64(),
+            fov_deg: camera.fov_rad().to_degrees(),
+            focal_px: camera.focal_length_px,
+            focal_sigma_px,
+            ids_array: PyOnceLock::new(),
+            residuals_array: PyOnceLock::new(),
+        }
+    }
+
+    fn radec_roll_deg(&self) -> (f64, f64, f64) {
+        self.rotation
+            .as_ref()
+            .map_or((f64::NAN, f64::NAN, f64::NAN), |r| {
+                let (ra, dec, roll) = geometry::radec_roll_from_attitude(r);
+                (ra.to_degrees(), dec.to_degrees(), roll.to_degrees())
+            })
+    }
+}
+
+/// The plain values of an [`PyIdentification`], for pickling.
+type State = (
+    String,
+    Vec<i64>,
+    Vec<f64>,
+    Option<Vec<f64>>,
+    bool,
+    f64,
+    usize,
+    [f64; 6],
+    usize,
+);
+
+/// NaN as None: JSON has no NaN.
+fn json_float(py: Python<'_>, v: f64) -> PyResult<Py<PyAny>> {
+    Ok(if v.is_nan() {
+        py.None()
+    } else {
+        v.into_pyobject(py)?.into_any().unbind()
+    })
+}
+
+#[pymethods]
+impl PyIdentification {
+    /// Catalogue id of each input centroid, in input order; -1 where unidentified.
+    #[getter]
+    fn ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        self.ids_array
+            .get_or_init(py, || self.ids.clone().into_pyarray(py).unbind())
+            .bind(py)
+            .clone()
+    }
+    /// Whether a verified solution was found; when False every id is -1.
+    #[getter]
+    fn ok(&self) -> bool {
+        self.rotation.is_some()
+    }
+    /// `identified`, `no_match`, `search_limit` or `timeout`.
+    #[getter]
+    fn status(&self) -> &'static str {
+        self.status
+    }
+    #[getter]
+    fn ra_deg(&self) -> f64 {
+        self.radec_roll_deg().0
+    }
+    #[getter]
+    fn dec_deg(&self) -> f64 {
+        self.radec_roll_deg().1
+    }
+    #[getter]
+    fn roll_deg(&self) -> f64 {
+        self.radec_roll_deg().2
+    }
+    /// `(ra_deg, dec_deg)` of the boresight.
+    #[getter]
+    fn boresight_radec_deg(&self) -> (f64, f64) {
+        let (ra, dec, _) = self.radec_roll_deg();
+        (ra, dec)
+    }
+    /// Rotation ICRS → camera as `[w, x, y, z]`, w ≥ 0; None unless `ok`.
+    #[getter]
+    fn quaternion<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.rotation
+            .as_ref()
+            .map(|r| quaternion_wxyz(r).to_vec().into_pyarray(py))
+    }
+    /// `v_cam = R @ v_icrs`; None unless `ok`.
+    #[getter]
+    fn rotation_matrix<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.rotation.as_ref().map(|r| matrix3(r).into_pyarray(py))
+    }
+    /// Angle between each centroid's direction and its star, arcseconds; NaN where unidentified.
+    #[getter]
+    fn residuals_arcsec<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.residuals_array
+            .get_or_init(py, || {
+                self.residuals_arcsec.clone().into_pyarray(py).unbind()
+            })
+            .bind(py)
+            .clone()
+    }
+    #[getter]
+    fn mirrored(&self) -> bool {
+        self.mirrored
+    }
+    #[getter]
+    fn false_match_probability(&self) -> f64 {
+        self.false_match_probability
+    }
+    #[getter]
+    fn n_matched(&self) -> usize {
+        self.n_matched
+    }
+    #[getter]
+    fn centroid_sigma_px(&self) -> f64 {
+        self.centroid_sigma_px
+    }
+    #[getter]
+    fn match_radius_arcsec(&self) -> f64 {
+        self.match_radius_arcsec
+    }
+    #[getter]
+    fn hypotheses(&self) -> usize {
+        self.hypotheses
+    }
+    /// Time spent identifying inside the Rust core (excludes Python overhead), seconds.
+    #[getter]
+    fn time_s(&self) -> f64 {
+        self.time_s
+    }
+    #[getter]
+    fn fov_deg(&self) -> f64 {
+        self.fov_deg
+    }
+    #[getter]
+    fn focal_px(&self) -> f64 {
+        self.focal_px
+    }
+    #[getter]
+    fn focal_sigma_px(&self) -> f64 {
+        self.focal_sigma_px
+    }
+
+    /// Pickling (multiprocessing returns results this way): the plain values, rebuilt by
+    /// `_from_state`.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (State,))> {
+        let me = slf.get();
+        let state = (
+            me.status.to_string(),
+            me.ids.clone(),
+            me.residuals_arcsec.clone(),
+            me.rotation.map(|r| matrix3(&r).into_raw_vec_and_offset().0),
+            me.mirrored,
+            me.false_match_probability,
+            me.n_matched,
+            [
+                me.centroid_sigma_px,
+                me.match_radius_arcsec,
+                me.time_s,
+                me.fov_deg,
+                me.focal_px,
+                me.focal_sigma_px,
+            ],
+            me.hypotheses,
+        );
+        Ok((slf.get_type().getattr("_from_state")?, (state,)))
+    }
+
+    #[staticmethod]
+    fn _from_state(state: State) -> PyResult<Self> {
+        let (status, ids, residuals_arcsec, rotation, mirrored, fmp, n_matched, floats, hypotheses) =
+            state;
+        let status = [
+            Status::Identified,
+            Status::NoMatch,
+            Status::SearchLimit,
+            Status::Timeout,
+        ]
+        .into_iter()
+        .map(|s| s.as_str())
+        .find(|s| *s == status)
+        .ok_or_else(|| PyValueError::new_err(format!("unknown status {status:?}")))?;
+        let rotation = match rotation {
+            None => None,
+            Some(m) if m.len() == 9 => Some(Rotation3::from_matrix_unchecked(
+                nalgebra::Matrix3::from_row_slice(&m),
+            )),
+            Some(m) => {
+                return Err(PyValueError::new_err(format!(
+                    "a rotation has 9 entries, got {}",
+                    m.len()
+                )))
+            }
+        };
+        if ids.len() != residuals_arcsec.len() {
+            return Err(PyValueError::new_err("ids and residuals differ in length"));
+        }
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px] =
+            floats;
+        Ok(Self {
+            status,
+            ids,
+            residuals_arcsec,
+            rotation,
+            mirrored,
+            false_match_probability: fmp,
+            n_matched,
+            centroid_sigma_px,
+            match_radius_arcsec,
+            hypotheses,
+            time_s,
+            fov_deg,
+            focal_px,
+            focal_sigma_px,
+            ids_array: PyOnceLock::new(),
+            residuals_array: PyOnceLock::new(),
+        })
+    }
+
+    /// Plain Python values (lists, floats, None for NaN), ready for `json.dumps`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let (ra, dec, roll) = self.radec_roll_deg();
+        d.set_item("ids", &self.ids)?;
+        d.set_item("ok", self.ok())?;
+        d.set_item("status", self.status)?;
+        d.set_item("ra_deg", json_float(py, ra)?)?;
+        d.set_item("dec_deg", json_float(py, dec)?)?;
+        d.set_item("roll_deg", json_float(py, roll)?)?;
+        d.set_item(
+            "quaternion",
+            self.rotation.as_ref().map(|r| quaternion_wxyz(r).to_vec()),
+        )?;
+        d.set_item(
+            "rotation_matrix",
+            self.rotation.as_ref().map(|r| {
+                let m = r.matrix();
+                (0..3)
+                    .map(|i| vec![m[(i, 0)], m[(i, 1)], m[(i, 2)]])
+                    .collect::<Vec<_>>()
+            }),
+        )?;
+        let residuals = self
+            .residuals_arcsec
             .iter()
-            .map(|r| r * ARCSEC_PER_RAD)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item("false_match_probability", id.false_match_probability)?;
-    d.set_item("n_matched", id.matched)?;
-    d.set_item("centroid_sigma_px", id.centroid_sigma_px)?;
-    d.set_item("match_radius_arcsec", id.match_radius_rad * ARCSEC_PER_RAD)?;
-    d.set_item("hypotheses", id.hypotheses)?;
-    d.set_item("time_s", id.elapsed.as_secs_f64())?;
-    d.set_item("focal_px", camera.focal_length_px)?;
-    d.set_item("fov_deg", camera.fov_rad().to_degrees())?;
-    d.set_item("focal_sigma_px", f64::NAN)?;
-    Ok(d)
+            .map(|&v| json_float(py, v))
+            .collect::<PyResult<Vec<_>>>()?;
+        d.set_item("residuals_arcsec", residuals)?;
+        d.set_item("mirrored", self.mirrored)?;
+        d.set_item("false_match_probability", self.false_match_probability)?;
+        d.set_item("n_matched", self.n_matched)?;
+        d.set_item("centroid_sigma_px", json_float(py, self.centroid_sigma_px)?)?;
+        d.set_item(
+            "match_radius_arcsec",
+            json_float(py, self.match_radius_arcsec)?,
+        )?;
+        d.set_item("hypotheses", self.hypotheses)?;
+        d.set_item("time_s", self.time_s)?;
+        d.set_item("fov_deg", json_float(py, self.fov_deg)?)?;
+        d.set_item("focal_px", json_float(py, self.focal_px)?)?;
+        d.set_item("focal_sigma_px", json_float(py, self.focal_sigma_px)?)?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        let n = self.ids.len();
+        if !self.ok() {
+            return format!(
+                "Identification(ok=False, status='{}', 0/{n} stars identified, {} hypotheses, time {:.3} ms)",
+                self.status,
+                self.hypotheses,
+                self.time_s * 1e3
+            );
+        }
+        let (ra, dec, roll) = self.radec_roll_deg();
+        let (sum_sq, k) = self
+            .residuals_arcsec
+            .iter()
+            .filter(|v| !v.is_nan())
+            .fold((0.0, 0usize), |(s, k), v| (s + v * v, k + 1));
+        let rms = (sum_sq / k.max(1) as f64).sqrt();
+        let fov = if self.focal_sigma_px.is_nan() {
+            String::new()
+        } else {
+            format!("fov={:.4} deg (estimated), ", self.fov_deg)
+        };
+        format!(
+            "Identification(ok=True, {}/{n} stars identified, ra={ra:.5} deg, dec={dec:+.5} deg, roll={roll:.4} deg, \
+             mirrored={}, {fov}rms residual {rms:.2} arcsec, P(false match) <= {:.1e}, time {:.3} ms)",
+            self.n_matched,
+            if self.mirrored { "True" } else { "False" },
+            self.false_match_probability,
+            self.time_s * 1e3
+        )
+    }
 }
 
 pub fn frame<'py>(
@@ -109,6 +451,6 @@ pub fn frame<'py>(
         ids_of(catalog, &f.catalog_index).into_pyarray(py),
     )?;
     d.set_item("mirrored", f.mirrored)?;
-    put_attitude(&d, Some(&f.r_icrs_to_cam))?;
+    put_attitude(&d, &f.r_icrs_to_cam)?;
     Ok(d)
 }

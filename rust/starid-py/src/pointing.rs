@@ -10,6 +10,7 @@ use starid_core::pointing::{self, PointingFit, RefineOptions};
 use starid_core::{geometry, Camera};
 
 use crate::catalog::PyCatalog;
+use crate::outcome::PyIdentification;
 use crate::{convert, outcome, run_core, PyIdentifyConfig};
 
 fn matrix<'py>(py: Python<'py>, m: &nalgebra::DMatrix<f64>) -> Bound<'py, numpy::PyArray2<f64>> {
@@ -231,7 +232,7 @@ pub fn identify_unknown_fov<'py>(
     fov_lo_deg: f64,
     fov_hi_deg: f64,
     config: &Bound<'py, PyIdentifyConfig>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyIdentification> {
     if !(fov_lo_deg.is_finite()
         && fov_hi_deg.is_finite()
         && 0.0 < fov_lo_deg
@@ -267,10 +268,10 @@ pub fn identify_unknown_fov<'py>(
         focal_length_px: f64::NAN,
     };
     let cam = r.camera.unwrap_or(nan_camera);
-    let d = outcome::identification(py, &catalog.get().inner, &r.identification, &cam)?;
-    d.set_item(
-        "focal_sigma_px",
+    Ok(PyIdentification::new(
+        &catalog.get().inner,
+        &r.identification,
+        &cam,
         r.fit.as_ref().map_or(f64::NAN, PointingFit::focal_sigma_px),
-    )?;
-    Ok(d)
+    ))
 }
