@@ -105,9 +105,10 @@ fn identify(c: &mut Criterion) {
     g.finish();
 }
 
-/// Attitude from matched stars: Wahba/SVD over 20 pairs.
+/// Attitude from matched stars over 20 pairs: Wahba by SVD, and by Gauss–Newton from a
+/// rotation 1e-4 rad off (as in verification, where the previous fit is the start).
 fn attitude(c: &mut Criterion) {
-    use starid_core::attitude::wahba_svd;
+    use starid_core::attitude::{wahba_from, wahba_svd};
     use starid_core::geometry::{attitude_from_radec_roll, radec_to_unit};
     let r = attitude_from_radec_roll(1.0, 0.4, 2.0);
     let refs: Vec<_> = (0..20)
@@ -116,6 +117,10 @@ fn attitude(c: &mut Criterion) {
     let obs: Vec<_> = refs.iter().map(|v| r * v).collect();
     c.bench_function("attitude/wahba_svd_20_stars", |b| {
         b.iter(|| wahba_svd(black_box(&obs), &refs).unwrap())
+    });
+    let start = nalgebra::Rotation3::new(nalgebra::Vector3::new(1e-4, -5e-5, 8e-5)) * r;
+    c.bench_function("attitude/wahba_gauss_newton_20_stars", |b| {
+        b.iter(|| wahba_from(black_box(&obs), &refs, &start).unwrap())
     });
 }
 

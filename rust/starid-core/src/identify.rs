@@ -40,7 +40,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::{Rotation3, Vector3};
 
-use crate::attitude::wahba_svd;
+use crate::attitude::{triad, wahba_from};
 use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
@@ -743,7 +743,9 @@ impl Search<'_> {
             }
             self.hypotheses += 1;
             let obs = self.obs[usize::from(mirrored)];
-            let Some(r) = wahba_svd(&[obs[i], obs[j], obs[k]], &[*va, *vb, *vc]) else {
+            let Some(r) = triad(&obs[i], &obs[j], va, vb)
+                .and_then(|start| wahba_from(&[obs[i], obs[j], obs[k]], &[*va, *vb, *vc], &start))
+            else {
                 continue;
             };
             if !self.confirmed(
@@ -887,7 +889,7 @@ impl Search<'_> {
                 return None;
             }
             let (o_m, r_m) = (&self.scratch.obs_matched, &self.scratch.ref_matched);
-            r = wahba_svd(o_m, r_m)?;
+            r = wahba_from(o_m, r_m, &r)?;
             let sum_sq: f64 = o_m
                 .iter()
                 .zip(r_m)

@@ -23,7 +23,7 @@
 
 use std::time::Instant;
 
-use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
+use nalgebra::{Vector2, Vector3};
 
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
@@ -370,7 +370,7 @@ impl FocalSearch<'_> {
                         self.ray(q, f, mirrored),
                         self.ray(r, f, mirrored),
                     );
-                    let Some(rot) = triad(&rp, &rq, va, vb) else {
+                    let Some(rot) = crate::attitude::triad(&rp, &rq, va, vb) else {
                         continue;
                     };
                     let predicted = rot.inverse_transform_vector(&rr);
@@ -507,25 +507,4 @@ impl FocalSearch<'_> {
             _ => Some(f3),
         }
     }
-}
-
-/// Rotation ICRS → camera taking catalogue `(ca, cb)` onto camera rays `(oa, ob)` (TRIAD,
-/// exact on the first pair).
-fn triad(
-    oa: &Vector3<f64>,
-    ob: &Vector3<f64>,
-    ca: &Vector3<f64>,
-    cb: &Vector3<f64>,
-) -> Option<Rotation3<f64>> {
-    let frame = |a: &Vector3<f64>, b: &Vector3<f64>| -> Option<Matrix3<f64>> {
-        let t2 = a.cross(b);
-        let n = t2.norm();
-        if n < 1e-12 {
-            return None;
-        }
-        let t2 = t2 / n;
-        Some(Matrix3::from_columns(&[*a, t2, a.cross(&t2)]))
-    };
-    let (mo, mc) = (frame(oa, ob)?, frame(ca, cb)?);
-    Some(Rotation3::from_matrix_unchecked(mo * mc.transpose()))
 }
