@@ -11,8 +11,15 @@ use crate::error::{Error, Result};
 use crate::geometry::{radec_to_unit, unit_to_radec};
 use crate::sky::{CellIndex, Hit, Radius, ZoneIndex};
 
-/// Zone height of the catalogue's spatial index.
+/// Zone height of the catalogue's spatial index for small cones.
 const ZONE_HEIGHT_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
+
+/// Zone height of a second index for wide cones (a field of view, a neighbourhood): each zone
+/// costs two binary searches, and a 17° cone crosses 34 zones of 0.5° but 7 of 3°.
+const WIDE_ZONE_HEIGHT_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
+
+/// Cones wider than this (radius, radians) are searched in the wide zones.
+const WIDE_CONE_RAD: f64 = 1.5 * std::f64::consts::PI / 180.0;
 
 /// A star catalogue (struct of arrays) with its spatial index.
 ///
@@ -26,6 +33,7 @@ pub struct Catalog {
     mag: Vec<f64>,
     vectors: Vec<Vector3<f64>>,
     zones: ZoneIndex,
+    wide_zones: ZoneIndex,
     cells: CellIndex,
 }
 
@@ -91,6 +99,7 @@ impl Catalog {
     fn from_vectors(ids: Vec<i64>, vectors: Vec<Vector3<f64>>, mag: Vec<f64>) -> Self {
         let (ra_rad, dec_rad): (Vec<f64>, Vec<f64>) = vectors.iter().map(unit_to_radec).unzip();
         let zones = ZoneIndex::new(&vectors, ZONE_HEIGHT_RAD);
+        let wide_zones = ZoneIndex::new(&vectors, WIDE_ZONE_HEIGHT_RAD);
         let cells = CellIndex::new(&vectors);
         Self {
             ids,
@@ -99,6 +108,7 @@ impl Catalog {
             mag,
             vectors,
             zones,
+            wide_zones,
             cells,
         }
     }
@@ -364,14 +374,13 @@ impl Catalog {
         let per_star = |i: usize| -> bool {
             let m = self.mag[i];
             let mut brighter = 0usize;
-            self.zones
-                .for_each_in_cone(&self.vectors, &self.vectors[i], radius_rad, |j, _| {
-                    let mj = self.mag[j as usize];
-                    // Ties go to the lower index, so equal magnitudes cannot all exclude each other.
-                    if mj < m || (mj == m && (j as usize) < i) {
-                        brighter += 1;
-                    }
-                });
+            self.for_each_in_cone(&self.vectors[i], radius_rad, |j, _| {
+                let mj = self.mag[j as usize];
+                // Ties go to the lower index, so equal magnitudes cannot all exclude each other.
+                if mj < m || (mj == m && (j as usize) < i) {
+                    brighter += 1;
+                }
+            });
             brighter < max_brighter
         };
         #[cfg(feature = "parallel")]
@@ -385,11 +394,34 @@ impl Catalog {
         }
     }
 
+    /// Calls `f(index, cos)` for every star within `radius_rad` of `center` (a unit vector),
+    /// through the zone index whose height suits the radius.
+    #[inline]
+    pub fn for_each_in_cone(
+        &self,
+        center: &Vector3<f64>,
+        radius_rad: f64,
+        f: impl FnMut(u32, f64),
+    ) {
+        let zones = if radius_rad > WIDE_CONE_RAD {
+            &self.wide_zones
+        } else {
+            &self.zones
+        };
+        zones.for_each_in_cone(&self.vectors, center, radius_rad, f);
+    }
+
+    /// Number of stars within `radius_rad` of `center`.
+    pub fn count_in_cone(&self, center: &Vector3<f64>, radius_rad: f64) -> usize {
+        let mut n = 0;
+        self.for_each_in_cone(center, radius_rad, |_, _| n += 1);
+        n
+    }
+
     /// Indices of the stars within `radius_rad` of `center`.
     pub fn in_cone(&self, center: &Vector3<f64>, radius_rad: f64) -> Vec<u32> {
         let mut out = Vec::new();
-        self.zones
-            .for_each_in_cone(&self.vectors, center, radius_rad, |s, _| out.push(s));
+        self.for_each_in_cone(center, radius_rad, |s, _| out.push(s));
         out
     }
 }
@@ -498,6 +530,27 @@ fn parse_id(s: &str) -> Option<i64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cones_small_and_wide_match_brute_force() {
+        let cat = crate::simulate::random_catalog(5000, 1.0, 6.0, 3).unwrap();
+        let v = cat.vectors();
+        for (k, r_deg) in [0.2, 1.0, 1.49, 1.51, 4.0, 8.5, 30.0, 100.0]
+            .iter()
+            .enumerate()
+        {
+            let r = f64::to_radians(*r_deg);
+            for c in [v[k * 7], v[k * 11 + 1], Vector3::z(), -Vector3::z()] {
+                let mut got = cat.in_cone(&c, r);
+                got.sort_unstable();
+                let want: Vec<u32> = (0..v.len() as u32)
+                    .filter(|&i| v[i as usize].dot(&c) >= r.cos())
+                    .collect();
+                assert_eq!(got, want, "radius {r_deg} deg");
+                assert_eq!(cat.count_in_cone(&c, r), want.len());
+            }
+        }
+    }
 
     #[test]
     fn parses_csv_with_header_and_extra_columns() {

@@ -86,14 +86,12 @@ pub fn thin_doubles(
             continue;
         }
         owner[i] = Some(i);
-        catalog
-            .zones()
-            .for_each_in_cone(vectors, &vectors[i], min_separation_rad, |j, _| {
-                let j = j as usize;
-                if owner[j].is_none() {
-                    owner[j] = Some(i);
-                }
-            });
+        catalog.for_each_in_cone(&vectors[i], min_separation_rad, |j, _| {
+            let j = j as usize;
+            if owner[j].is_none() {
+                owner[j] = Some(i);
+            }
+        });
     }
     let mut kept: Vec<usize> = (0..n).filter(|&i| owner[i] == Some(i)).collect();
     kept.sort_unstable();
@@ -294,13 +292,11 @@ pub fn nearest_neighbour_angles(catalog: &Catalog) -> Result<Vec<f64>> {
         let mut radius = start.min(PI);
         loop {
             let mut best: Option<(u32, f64)> = None;
-            catalog
-                .zones()
-                .for_each_in_cone(vectors, &vectors[i], radius, |j, c| {
-                    if j as usize != i && best.is_none_or(|b| c > b.1) {
-                        best = Some((j, c));
-                    }
-                });
+            catalog.for_each_in_cone(&vectors[i], radius, |j, c| {
+                if j as usize != i && best.is_none_or(|b| c > b.1) {
+                    best = Some((j, c));
+                }
+            });
             if let Some((j, _)) = best {
                 return angle_between(&vectors[i], &vectors[j as usize]);
             }
@@ -401,23 +397,19 @@ pub fn field_star_counts(
             let mut count = 0usize;
             match field {
                 Field::Circle { .. } => {
-                    catalog
-                        .zones()
-                        .for_each_in_cone(vectors, &z_axis, radius, |_, _| count += 1);
+                    catalog.for_each_in_cone(&z_axis, radius, |_, _| count += 1);
                 }
                 Field::Square { fov_rad } => {
                     let half = (0.5 * fov_rad).tan();
-                    catalog
-                        .zones()
-                        .for_each_in_cone(vectors, &z_axis, radius, |j, c| {
-                            let v = &vectors[j as usize];
-                            if c > 0.0
-                                && v.dot(&x_axis).abs() <= half * c
-                                && v.dot(&y_axis).abs() <= half * c
-                            {
-                                count += 1;
-                            }
-                        });
+                    catalog.for_each_in_cone(&z_axis, radius, |j, c| {
+                        let v = &vectors[j as usize];
+                        if c > 0.0
+                            && v.dot(&x_axis).abs() <= half * c
+                            && v.dot(&y_axis).abs() <= half * c
+                        {
+                            count += 1;
+                        }
+                    });
                 }
             }
             if hist.len() <= count {

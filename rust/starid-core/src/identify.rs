@@ -973,15 +973,7 @@ impl Search<'_> {
     fn match_tail(&self, r: &Rotation3<f64>, n: usize, matched: usize, radius: f64) -> f64 {
         let half_diag = 0.5 * self.camera.diagonal_fov_rad();
         let boresight = r.inverse_transform_vector(&Vector3::z());
-        let mut in_field = 0usize;
-        self.solver.catalog.zones().for_each_in_cone(
-            self.solver.catalog.vectors(),
-            &boresight,
-            half_diag,
-            |_, _| {
-                in_field += 1;
-            },
-        );
+        let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
         let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
         let density = in_field.max(1) as f64 / cone_sr;
         let p = (density * PI * radius * radius).min(1.0);

@@ -186,13 +186,11 @@ impl PairIndex {
         let vectors = catalog.vectors();
         let per_star = |i: usize| -> usize {
             let mut n = 0;
-            catalog
-                .zones()
-                .for_each_in_cone(vectors, &vectors[i], max_angle_rad, |j, _| {
-                    if (j as usize) > i {
-                        n += 1;
-                    }
-                });
+            catalog.for_each_in_cone(&vectors[i], max_angle_rad, |j, _| {
+                if (j as usize) > i {
+                    n += 1;
+                }
+            });
             n
         };
         #[cfg(feature = "parallel")]
@@ -221,16 +219,14 @@ fn neighbour_pairs(
             return out;
         }
         let vi: &Vector3<f64> = &vectors[i];
-        catalog
-            .zones()
-            .for_each_in_cone(vectors, vi, max_angle_rad, |j, _| {
-                if (j as usize) > i && member(j as usize) {
-                    let angle = crate::geometry::angle_between(vi, &vectors[j as usize]);
-                    if angle <= max_angle_rad {
-                        out.push((angle as f32, [i as u32, j]));
-                    }
+        catalog.for_each_in_cone(vi, max_angle_rad, |j, _| {
+            if (j as usize) > i && member(j as usize) {
+                let angle = crate::geometry::angle_between(vi, &vectors[j as usize]);
+                if angle <= max_angle_rad {
+                    out.push((angle as f32, [i as u32, j]));
                 }
-            });
+            }
+        });
         out
     };
     #[cfg(feature = "parallel")]

@@ -428,7 +428,6 @@ impl FocalSearch<'_> {
             return Some(f3);
         }
         let catalog = self.solver.catalog();
-        let zones = catalog.zones();
         let mut hits: Vec<(usize, u32)> = Vec::new();
         let mut misses = 0;
         for &l in others {
@@ -457,8 +456,7 @@ impl FocalSearch<'_> {
         // binomial tail of the hits over the stars tried must be small.
         let boresight = rot.inverse_transform_vector(&Vector3::z());
         let half_diag = (self.centre.norm() / f3).atan();
-        let mut in_field = 0usize;
-        zones.for_each_in_cone(vectors, &boresight, half_diag, |_, _| in_field += 1);
+        let in_field = catalog.count_in_cone(&boresight, half_diag);
         let cone_sr = 2.0 * std::f64::consts::PI * (1.0 - half_diag.cos());
         let density = in_field.max(1) as f64 / cone_sr;
         let widest = others
