@@ -535,6 +535,8 @@ struct Scratch {
     claim: Vec<(u32, u32, f64)>,
     obs_matched: Vec<Vector3<f64>>,
     ref_matched: Vec<Vector3<f64>>,
+    /// The star of each centroid in the matches the attitude was last fitted to.
+    fitted: Vec<Option<u32>>,
 }
 
 struct Search<'a> {
@@ -883,12 +885,28 @@ impl Search<'_> {
         let mut sigma = sigma_rad;
         // Match and re-solve; then the radius follows the noise estimated from the residuals
         // (5σ, never below half the ladder's σ, so that four stars cannot talk it down to nothing).
+        // When a pass matches exactly the stars the attitude was fitted to, the attitude, the
+        // noise and the radius would all come out the same: a fixed point, and its matches are final.
+        self.scratch.fitted.clear();
+        let mut matched = 0;
+        let mut fixed_point = false;
         for _ in 0..4 {
-            let matched = self.match_all(&r, obs, radius, sigma);
+            matched = self.match_all(&r, obs, radius, sigma);
             if matched < 3 {
                 return None;
             }
-            let (o_m, r_m) = (&self.scratch.obs_matched, &self.scratch.ref_matched);
+            let s = &mut self.scratch;
+            if s.matches
+                .iter()
+                .map(|m| m.map(|(c, _)| c))
+                .eq(s.fitted.iter().copied())
+            {
+                fixed_point = true;
+                break;
+            }
+            s.fitted.clear();
+            s.fitted.extend(s.matches.iter().map(|m| m.map(|(c, _)| c)));
+            let (o_m, r_m) = (&s.obs_matched, &s.ref_matched);
             r = wahba_from(o_m, r_m, &r)?;
             let sum_sq: f64 = o_m
                 .iter()
@@ -907,7 +925,9 @@ impl Search<'_> {
                 break;
             }
         }
-        let matched = self.match_all(&r, obs, radius, sigma);
+        if !fixed_point {
+            matched = self.match_all(&r, obs, radius, sigma);
+        }
         if matched < self.config.min_matches {
             return None;
         }
