@@ -20,9 +20,10 @@ fn main() {
     let t = Instant::now();
     let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
     println!(
-        "index: {} pairs, {:.2} MB, built in {:.1} ms",
+        "index: {} pairs (+ {} among locally bright stars), {:.2} MB, built in {:.1} ms",
         solver.pair_index().len(),
-        solver.pair_index().memory_bytes() as f64 / 1e6,
+        solver.bright_pair_index().map_or(0, |b| b.len()),
+        solver.memory_bytes() as f64 / 1e6,
         t.elapsed().as_secs_f64() * 1e3
     );
     let sim = SimConfig {

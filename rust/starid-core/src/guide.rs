@@ -501,7 +501,7 @@ pub fn metrics(catalog: &Catalog, field: Field, trials: usize, seed: u64) -> Res
         nn_std_rad: var.sqrt(),
         stars_per_field,
         pairs,
-        index_bytes: PairIndex::memory_bytes_for(pairs),
+        index_bytes: PairIndex::memory_bytes_for(pairs, catalog.len()),
     })
 }
 

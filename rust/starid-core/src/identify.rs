@@ -817,7 +817,7 @@ impl Search<'_> {
         let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
         self.scratch.adj_ik.fill(idx.pairs(look.0.clone()), n_cat);
         let adj = &self.scratch.adj_ik;
-        for &[p, q] in idx.pairs(walk.0) {
+        for [p, q] in idx.pairs(walk.0) {
             for (x, y) in [(p, q), (q, p)] {
                 let vy = &cat[y as usize];
                 for z in adj.partners(x) {
@@ -1043,7 +1043,7 @@ struct Adjacency {
 }
 
 impl Adjacency {
-    fn fill(&mut self, pairs: &[[u32; 2]], n_cat: usize) {
+    fn fill(&mut self, pairs: impl Iterator<Item = [u32; 2]>, n_cat: usize) {
         for &s in &self.touched {
             self.head[s as usize] = NONE;
         }
@@ -1054,7 +1054,7 @@ impl Adjacency {
         self.touched.clear();
         self.next.clear();
         self.partner.clear();
-        for &[p, q] in pairs {
+        for [p, q] in pairs {
             self.push(p, q);
             self.push(q, p);
         }

@@ -8,7 +8,8 @@
 //! O(1 + answers) whatever the catalogue size.
 //!
 //! Each bin holds [`PAIRS_PER_BIN`] pairs on average: the k-vector costs a quarter of a word per
-//! pair instead of one, which keeps the 12° index of a 4908-star catalogue under 4 MB.
+//! pair instead of one. Catalogues of at most 65 536 stars store a pair's two stars as 16-bit
+//! indices: 9 bytes a pair in all (f32 angle, two u16, a quarter of a u32), 13 beyond that.
 
 use std::ops::Range;
 
@@ -23,14 +24,54 @@ pub const PAIRS_PER_BIN: usize = 4;
 /// Largest index we agree to build, in pairs (about 1.2 GB).
 pub const MAX_PAIRS: usize = 100_000_000;
 
+/// Largest catalogue whose pairs are stored as 16-bit indices.
+pub const NARROW_PAIR_STARS: usize = 1 << 16;
+
+/// Catalogue indices of each pair, `[lower, higher]`: 16-bit when the catalogue allows.
+#[derive(Debug, Clone)]
+enum PairStore {
+    Narrow(Vec<[u16; 2]>),
+    Wide(Vec<[u32; 2]>),
+}
+
+/// The catalogue-index pairs of a range of a [`PairIndex`], as `[lower, higher]`.
+#[derive(Debug, Clone)]
+pub enum Pairs<'a> {
+    /// Pairs stored as 16-bit indices.
+    Narrow(std::slice::Iter<'a, [u16; 2]>),
+    /// Pairs stored as 32-bit indices.
+    Wide(std::slice::Iter<'a, [u32; 2]>),
+}
+
+impl Iterator for Pairs<'_> {
+    type Item = [u32; 2];
+
+    #[inline]
+    fn next(&mut self) -> Option<[u32; 2]> {
+        match self {
+            Self::Narrow(it) => it.next().map(|p| [u32::from(p[0]), u32::from(p[1])]),
+            Self::Wide(it) => it.next().copied(),
+        }
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let n = match self {
+            Self::Narrow(it) => it.len(),
+            Self::Wide(it) => it.len(),
+        };
+        (n, Some(n))
+    }
+}
+
+impl ExactSizeIterator for Pairs<'_> {}
+
 /// Sorted catalogue pairs with their k-vector.
 #[derive(Debug, Clone)]
 pub struct PairIndex {
     max_angle_rad: f64,
     /// Separations in radians, ascending.
     angles: Vec<f32>,
-    /// Catalogue indices of each pair, `[lower, higher]`.
-    pairs: Vec<[u32; 2]>,
+    pairs: PairStore,
     /// `k[j]` = number of pairs with angle < `q + m·j`.
     k: Vec<u32>,
     slope: f64,
@@ -85,11 +126,16 @@ impl PairIndex {
         let mut entries = neighbour_pairs(catalog, max_angle_rad, members);
         entries.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let angles: Vec<f32> = entries.iter().map(|e| e.0).collect();
-        let pairs: Vec<[u32; 2]> = entries.into_iter().map(|e| e.1).collect();
+        let pairs = if catalog.len() <= NARROW_PAIR_STARS {
+            // Indices below 65 536: the cast is exact.
+            PairStore::Narrow(entries.iter().map(|e| e.1.map(|i| i as u16)).collect())
+        } else {
+            PairStore::Wide(entries.into_iter().map(|e| e.1).collect())
+        };
         Ok(Self::from_sorted(angles, pairs, max_angle_rad))
     }
 
-    fn from_sorted(angles: Vec<f32>, pairs: Vec<[u32; 2]>, max_angle_rad: f64) -> Self {
+    fn from_sorted(angles: Vec<f32>, pairs: PairStore, max_angle_rad: f64) -> Self {
         let n = angles.len();
         let bins = (n / PAIRS_PER_BIN).max(2);
         let (lo, hi) = if n == 0 {
@@ -146,8 +192,14 @@ impl PairIndex {
     }
 
     /// Catalogue indices of the pairs at `range`.
-    pub fn pairs(&self, range: Range<usize>) -> &[[u32; 2]] {
-        &self.pairs[range]
+    ///
+    /// # Panics
+    /// If `range` exceeds the index.
+    pub fn pairs(&self, range: Range<usize>) -> Pairs<'_> {
+        match &self.pairs {
+            PairStore::Narrow(p) => Pairs::Narrow(p[range].iter()),
+            PairStore::Wide(p) => Pairs::Wide(p[range].iter()),
+        }
     }
 
     /// Separation in radians of the pairs at `range`.
@@ -172,12 +224,18 @@ impl PairIndex {
 
     /// Heap memory in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.angles.len() * 4 + self.pairs.len() * 8 + self.k.len() * 4
+        let pair_bytes = match &self.pairs {
+            PairStore::Narrow(p) => p.len() * 4,
+            PairStore::Wide(p) => p.len() * 8,
+        };
+        self.angles.len() * 4 + pair_bytes + self.k.len() * 4
     }
 
-    /// Heap memory in bytes of an index holding `n_pairs` pairs, without building it.
-    pub fn memory_bytes_for(n_pairs: usize) -> usize {
-        n_pairs * 12 + (n_pairs / PAIRS_PER_BIN).max(2) * 4
+    /// Heap memory in bytes of an index holding `n_pairs` pairs of a catalogue of `n_stars`
+    /// stars, without building it.
+    pub fn memory_bytes_for(n_pairs: usize, n_stars: usize) -> usize {
+        let per_pair = if n_stars <= NARROW_PAIR_STARS { 8 } else { 12 };
+        n_pairs * per_pair + (n_pairs / PAIRS_PER_BIN).max(2) * 4
     }
 
     /// Number of pairs of `catalog` separated by at most `max_angle_rad`: the size of the index
@@ -250,7 +308,7 @@ mod tests {
     #[test]
     fn range_handles_edges() {
         let angles = vec![0.1f32, 0.2, 0.2, 0.3, 0.5];
-        let pairs = (0..5).map(|i| [i, i + 1]).collect();
+        let pairs = PairStore::Wide((0..5).map(|i| [i, i + 1]).collect());
         let idx = PairIndex::from_sorted(angles, pairs, 1.0);
         assert_eq!(idx.range(0.2, 0.2), 1..3);
         assert_eq!(idx.range(0.0, 1.0), 0..5);
@@ -258,5 +316,36 @@ mod tests {
         assert_eq!(idx.range(-1.0, 0.05), 0..0);
         assert_eq!(idx.range(0.25, 0.31), 3..4);
         assert_eq!(idx.range(0.3, 0.2), 0..0);
+    }
+
+    #[test]
+    fn narrow_and_wide_storage_hold_the_same_pairs() {
+        let small = crate::simulate::random_catalog(3000, 1.0, 6.0, 9).unwrap();
+        let narrow = PairIndex::build(&small, 0.1).unwrap();
+        assert!(matches!(narrow.pairs, PairStore::Narrow(_)));
+        let all: Vec<[u32; 2]> = narrow.pairs(0..narrow.len()).collect();
+        let wide = PairIndex::from_sorted(narrow.angles.clone(), PairStore::Wide(all.clone()), 0.1);
+        for (lo, hi) in [(0.0, 0.1), (0.03, 0.031), (0.05, 0.2)] {
+            let (a, b) = (narrow.range(lo, hi), wide.range(lo, hi));
+            assert_eq!(a, b);
+            assert!(narrow.pairs(a.clone()).eq(wide.pairs(b)));
+            assert_eq!(narrow.pairs(a.clone()).len(), a.len());
+        }
+        assert_eq!(narrow.memory_bytes() + 4 * all.len(), wide.memory_bytes());
+        assert_eq!(
+            narrow.memory_bytes(),
+            PairIndex::memory_bytes_for(all.len(), 3000)
+        );
+        // Past 65 536 stars, indices take 32 bits.
+        let big = crate::simulate::random_catalog(NARROW_PAIR_STARS + 10, 1.0, 6.0, 9).unwrap();
+        let idx = PairIndex::build(&big, 0.004).unwrap();
+        assert!(matches!(idx.pairs, PairStore::Wide(_)));
+        assert!(idx
+            .pairs(0..idx.len())
+            .any(|p| p[1] as usize >= NARROW_PAIR_STARS));
+        assert_eq!(
+            idx.memory_bytes(),
+            PairIndex::memory_bytes_for(idx.len(), big.len())
+        );
     }
 }

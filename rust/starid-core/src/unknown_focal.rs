@@ -350,7 +350,7 @@ impl FocalSearch<'_> {
         let vectors = catalog.vectors();
         let reach = (d(p, r) + d(q, r)) / base;
         let mut found = Vec::new();
-        for (pair, &angle) in index.pairs(range.clone()).iter().zip(index.angles(range)) {
+        for (pair, &angle) in index.pairs(range.clone()).zip(index.angles(range)) {
             let Some(f) = focal_for_angle(&self.off[p], &self.off[q], f64::from(angle)) else {
                 continue;
             };

@@ -34,7 +34,7 @@ proptest! {
         for (frac, half_width) in queries {
             let centre = frac * max_angle;
             let (lo, hi) = (centre - half_width, centre + half_width);
-            let got: BTreeSet<[u32; 2]> = idx.pairs(idx.range(lo, hi)).iter().copied().collect();
+            let got: BTreeSet<[u32; 2]> = idx.pairs(idx.range(lo, hi)).collect();
             let want: BTreeSet<[u32; 2]> =
                 all.iter().filter(|(a, _)| *a >= lo as f32 && *a <= hi as f32).map(|(_, p)| *p).collect();
             prop_assert_eq!(got, want);
@@ -70,11 +70,9 @@ proptest! {
         let among = PairIndex::build_among(&cat, max_angle, Some(&bright)).unwrap();
         let want: BTreeSet<[u32; 2]> = full
             .pairs(0..full.len())
-            .iter()
             .filter(|p| bright[p[0] as usize] && bright[p[1] as usize])
-            .copied()
             .collect();
-        let got: BTreeSet<[u32; 2]> = among.pairs(0..among.len()).iter().copied().collect();
+        let got: BTreeSet<[u32; 2]> = among.pairs(0..among.len()).collect();
         prop_assert_eq!(got, want);
         prop_assert!(PairIndex::build_among(&cat, max_angle, Some(&bright[1..])).is_err());
     }
