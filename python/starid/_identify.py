@@ -189,8 +189,11 @@ def identify(
         Range of the unknown field of view (default :data:`DEFAULT_FOV_RANGE_DEG`, 8 to 25
         degrees); only without ``fov_deg``. The pair index is built for the widest field.
     magnitudes : array_like, shape (N,), optional
-        Instrument magnitude of each centroid (smaller is brighter); the search starts from
-        the brightest stars.
+        Instrument magnitude of each centroid (smaller is brighter; any zero point). The search
+        starts from the brightest stars (among catalogue stars that are locally bright first,
+        which is fast), and a centroid more than 1 mag (or 5 robust sigma) brighter than its
+        catalogue star, after the frame's fitted offset, is left unidentified: usually a false
+        star on the spot of a star too faint to be seen.
     centroid_sigma_px : float, optional
         Centroid noise (1 sigma per axis). By default the search adapts: tight tolerances
         first (0.2 px), then 0.7 px, then 2.5 px.

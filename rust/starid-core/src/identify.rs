@@ -19,7 +19,9 @@
 //!    from the residuals and the match radius widened to 4σ of it (never narrowed below 5σ of
 //!    the step), and the *false-match bound* is
 //!    computed (below). Only a solution with at least `min_matches` stars and a bound below
-//!    `max_false_match_prob` is reported; otherwise the search goes on.
+//!    `max_false_match_prob` is reported; otherwise the search goes on. With magnitudes, a match
+//!    whose centroid is far brighter than its catalogue star is dropped first
+//!    ([`MAG_BRIGHTER_LIMIT`]).
 //!
 //! # The false-match bound
 //! Under a wrong hypothesis, each of the `n − 3` centroids outside the triangle lands within the
@@ -74,6 +76,19 @@ pub const BRIGHT_MAX_BRIGHTER: usize = 6;
 /// With magnitudes, triangles of this many brightest centroids are first searched among the
 /// pairs of locally bright stars only (a small fraction of all pairs), then the whole index.
 pub const BRIGHT_SEARCH_STARS: usize = 6;
+
+/// With magnitudes, a matched centroid brighter than its catalogue star (after the frame's
+/// instrument offset, the median over the matches) by more than this many magnitudes, or by
+/// [`MAG_OUTLIER_SIGMAS`] robust standard deviations if that is more, is not that star: usually
+/// a false star on the spot of a catalogue star too faint to be seen. One-sided: a star fainter
+/// than expected (saturated, variable) keeps its id.
+pub const MAG_BRIGHTER_LIMIT: f64 = 1.0;
+
+/// See [`MAG_BRIGHTER_LIMIT`].
+pub const MAG_OUTLIER_SIGMAS: f64 = 5.0;
+
+/// Fewest matches from which the instrument offset is estimated for [`MAG_BRIGHTER_LIMIT`].
+pub const MAG_CHECK_MIN_MATCHES: usize = 5;
 
 /// Largest number of centroids accepted in one frame.
 pub const MAX_CENTROIDS: usize = 100_000;
@@ -318,9 +333,10 @@ impl Solver {
     /// Identify the stars of one frame.
     ///
     /// `centroids` are pixel `(x, y)`, x right, y down, origin at the sensor's top-left corner;
-    /// `magnitudes`, when given, one instrument magnitude per centroid (smaller is brighter):
-    /// only their order is used, to search the brightest stars first (among the locally
-    /// bright catalogue stars, then among all).
+    /// `magnitudes`, when given, one instrument magnitude per centroid (smaller is brighter), in
+    /// any zero point: their order decides which stars are searched first (among the locally
+    /// bright catalogue stars, then among all), and a match far brighter than its catalogue
+    /// star is dropped ([`MAG_BRIGHTER_LIMIT`]).
     ///
     /// # Errors
     /// `InvalidInput` for fewer than [`MIN_CENTROIDS`] or more than [`MAX_CENTROIDS`] centroids,
@@ -383,6 +399,7 @@ impl Solver {
             camera,
             config,
             obs: [&obs, &obs_mirrored],
+            magnitudes,
             order: &order,
             hypotheses: 0,
             pairs_visited: 0,
@@ -537,6 +554,8 @@ struct Scratch {
     ref_matched: Vec<Vector3<f64>>,
     /// The star of each centroid in the matches the attitude was last fitted to.
     fitted: Vec<Option<u32>>,
+    /// Instrument minus catalogue magnitude of the matches, then their absolute deviations.
+    mag_offsets: Vec<f64>,
 }
 
 struct Search<'a> {
@@ -547,6 +566,7 @@ struct Search<'a> {
     config: &'a IdentifyConfig,
     /// Observed directions: `[as seen, x reversed]`.
     obs: [&'a [Vector3<f64>]; 2],
+    magnitudes: Option<&'a [f64]>,
     order: &'a [usize],
     hypotheses: usize,
     pairs_visited: usize,
@@ -928,6 +948,23 @@ impl Search<'_> {
         if !fixed_point {
             matched = self.match_all(&r, obs, radius, sigma);
         }
+        if self.drop_too_bright() > 0 {
+            // Fewer matches: refit, and the bound below only grows.
+            matched = self.collect_matched(obs);
+            if matched < 3 {
+                return None;
+            }
+            r = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)?;
+            let cat = self.solver.catalog.vectors();
+            for (o, m) in self.scratch.matches.iter_mut().enumerate() {
+                if let Some((star, d)) = m {
+                    *d = r
+                        .inverse_transform_vector(&obs[o])
+                        .cross(&cat[*star as usize])
+                        .norm();
+                }
+            }
+        }
         if matched < self.config.min_matches {
             return None;
         }
@@ -957,7 +994,6 @@ impl Search<'_> {
         sigma_rad: f64,
     ) -> usize {
         let catalog = &*self.solver.catalog;
-        let cat = catalog.vectors();
         let radius = Radius::new(radius);
         let s = &mut self.scratch;
         s.matches.clear();
@@ -978,6 +1014,13 @@ impl Search<'_> {
                 s.matches[s.claim[w - 1].1 as usize] = None;
             }
         }
+        self.collect_matched(obs)
+    }
+
+    /// Fill the matched vector lists from `scratch.matches`; returns their length.
+    fn collect_matched(&mut self, obs: &[Vector3<f64>]) -> usize {
+        let cat = self.solver.catalog.vectors();
+        let s = &mut self.scratch;
         s.obs_matched.clear();
         s.ref_matched.clear();
         for (o, m) in s.matches.iter().enumerate() {
@@ -987,6 +1030,48 @@ impl Search<'_> {
             }
         }
         s.obs_matched.len()
+    }
+
+    /// With magnitudes, unmatch centroids far brighter than their catalogue star (see
+    /// [`MAG_BRIGHTER_LIMIT`]); returns how many.
+    fn drop_too_bright(&mut self) -> usize {
+        let Some(mags) = self.magnitudes else {
+            return 0;
+        };
+        let cat_mag = self.solver.catalog.mag();
+        let s = &mut self.scratch;
+        s.mag_offsets.clear();
+        s.mag_offsets.extend(
+            s.matches
+                .iter()
+                .zip(mags)
+                .filter_map(|(m, &obs_mag)| m.map(|(star, _)| obs_mag - cat_mag[star as usize])),
+        );
+        let n = s.mag_offsets.len();
+        if n < MAG_CHECK_MIN_MATCHES {
+            return 0;
+        }
+        let median = |v: &mut [f64]| -> f64 {
+            v.sort_unstable_by(f64::total_cmp);
+            let k = v.len();
+            0.5 * (v[(k - 1) / 2] + v[k / 2])
+        };
+        let offset = median(&mut s.mag_offsets);
+        for d in &mut s.mag_offsets {
+            *d = (*d - offset).abs();
+        }
+        let spread = 1.4826 * median(&mut s.mag_offsets);
+        let limit = MAG_BRIGHTER_LIMIT.max(MAG_OUTLIER_SIGMAS * spread);
+        let mut dropped = 0;
+        for (m, &obs_mag) in s.matches.iter_mut().zip(mags) {
+            if let Some((star, _)) = *m {
+                if obs_mag - cat_mag[star as usize] < offset - limit {
+                    *m = None;
+                    dropped += 1;
+                }
+            }
+        }
+        dropped
     }
 
     /// `P(Bin(n − 3, p) ≥ m − 3)` with `p` from the local catalogue density.

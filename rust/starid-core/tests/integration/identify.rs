@@ -184,6 +184,68 @@ fn with_magnitudes_the_locally_bright_stars_are_searched_first() {
 }
 
 #[test]
+fn a_false_star_far_brighter_than_the_faint_star_it_covers_is_not_that_star() {
+    let camera = camera_12();
+    let cat = bundled();
+    let sim = SimConfig {
+        noise_px: 0.1,
+        mag_noise: 0.05,
+        mag_limit: Some(6.0),
+        ..Default::default()
+    };
+    let mut checked = 0;
+    for seed in 0..40 {
+        let mut f = simulate(&cat, &camera, &sim, seed).unwrap();
+        if f.real_stars() < 8 {
+            continue;
+        }
+        // A catalogue star too faint for this frame, well inside the sensor.
+        let faint = cat
+            .in_cone(
+                &f.r_icrs_to_cam
+                    .inverse_transform_vector(&nalgebra::Vector3::z()),
+                0.08,
+            )
+            .into_iter()
+            .filter(|&s| cat.mag()[s as usize] > 6.1)
+            .find_map(|s| {
+                let (x, y) = camera.cam_to_pixel(&(f.r_icrs_to_cam * cat.vectors()[s as usize]))?;
+                ((40.0..472.0).contains(&x) && (40.0..472.0).contains(&y)).then_some((s, x, y))
+            });
+        let Some((star, x, y)) = faint else {
+            continue;
+        };
+        // A bright false star exactly there, and a real star reported 3 mag too faint (saturated).
+        f.centroids.push([x, y]);
+        f.magnitudes.push(3.0);
+        let real = f.catalog_index.iter().position(Option::is_some).unwrap();
+        f.magnitudes[real] += 3.0;
+        let cfg = IdentifyConfig::default();
+        let blind = solver_12()
+            .identify(&f.centroids, None, &camera, &cfg)
+            .unwrap();
+        let told = solver_12()
+            .identify(&f.centroids, Some(&f.magnitudes), &camera, &cfg)
+            .unwrap();
+        assert!(blind.is_identified() && told.is_identified());
+        let false_star = f.centroids.len() - 1;
+        assert_eq!(
+            blind.catalog_index[false_star],
+            Some(star),
+            "geometry alone takes it"
+        );
+        assert_eq!(told.catalog_index[false_star], None, "magnitudes reject it");
+        assert_eq!(
+            told.catalog_index[real], f.catalog_index[real],
+            "a faint-looking star keeps its id"
+        );
+        assert_eq!(told.matched, blind.matched - 1);
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked}");
+}
+
+#[test]
 fn hostile_frames_are_mostly_identified_and_never_wrongly_solved() {
     let camera = camera_12();
     let sim = SimConfig {
