@@ -1,4 +1,4 @@
-//! Identification per frame for several scenarios, and batch throughput.
+//! Identification per frame for the peer benchmark's scenarios, and batch throughput.
 
 use std::hint::black_box;
 
@@ -7,60 +7,23 @@ use starid_bench::{bundled_catalog, frames};
 use starid_core::simulate::SimConfig;
 use starid_core::{Camera, IdentifyConfig, Solver};
 
+/// The peer benchmark's scenarios (frames to magnitude 6, or 6.5, with 0.1 mag of magnitude
+/// noise, identified with their magnitudes), one with radial distortion, and one without
+/// magnitudes (geometry alone: the whole index from the start).
 fn identify(c: &mut Criterion) {
     let cat = bundled_catalog();
     let cfg = IdentifyConfig::default();
     let mut g = c.benchmark_group("identify");
     g.sample_size(10);
+    let base = SimConfig {
+        mag_limit: Some(6.0),
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
     let scenarios = [
-        (
-            "12deg_512px_0.2px",
-            12.0,
-            512.0,
-            SimConfig {
-                noise_px: 0.2,
-                ..Default::default()
-            },
-        ),
-        (
-            "20deg_1024px_0.2px",
-            20.0,
-            1024.0,
-            SimConfig {
-                noise_px: 0.2,
-                ..Default::default()
-            },
-        ),
-        (
-            "12deg_512px_0.2px_5false",
-            12.0,
-            512.0,
-            SimConfig {
-                noise_px: 0.2,
-                false_stars: 5,
-                ..Default::default()
-            },
-        ),
-        (
-            "10deg_1024px_mag6.5_0.3px",
-            10.0,
-            1024.0,
-            SimConfig {
-                noise_px: 0.3,
-                mag_limit: Some(6.5),
-                ..Default::default()
-            },
-        ),
-        (
-            "12deg_512px_0.2px_k1_-0.02",
-            12.0,
-            512.0,
-            SimConfig {
-                noise_px: 0.2,
-                radial_k1: -0.02,
-                ..Default::default()
-            },
-        ),
+        ("12deg_512px_0.2px", 12.0, 512.0, base.clone(), true),
+        ("20deg_1024px_0.2px", 20.0, 1024.0, base.clone(), true),
         (
             "12deg_512px_1px_2false_10pctdrop",
             12.0,
@@ -69,29 +32,70 @@ fn identify(c: &mut Criterion) {
                 noise_px: 1.0,
                 false_stars: 2,
                 drop_fraction: 0.1,
-                ..Default::default()
+                ..base.clone()
             },
+            true,
         ),
+        (
+            "12deg_512px_0.2px_5false",
+            12.0,
+            512.0,
+            SimConfig {
+                false_stars: 5,
+                ..base.clone()
+            },
+            true,
+        ),
+        (
+            "10deg_1024px_mag6.5_0.3px",
+            10.0,
+            1024.0,
+            SimConfig {
+                mag_limit: Some(6.5),
+                noise_px: 0.3,
+                ..base.clone()
+            },
+            true,
+        ),
+        (
+            "12deg_512px_0.2px_k1_-0.02",
+            12.0,
+            512.0,
+            SimConfig {
+                radial_k1: -0.02,
+                ..base.clone()
+            },
+            true,
+        ),
+        ("12deg_512px_0.2px_no_magnitudes", 12.0, 512.0, base, false),
     ];
-    for (name, fov, size, sim) in scenarios {
+    for (name, fov, size, sim, with_magnitudes) in scenarios {
         let camera = Camera::from_fov(f64::to_radians(fov), size, size).unwrap();
         let solver = Solver::for_camera(cat.clone(), &camera).unwrap();
         let fs = frames(&cat, &camera, &sim, 200);
+        let refs: Vec<_> = fs
+            .iter()
+            .map(|f| {
+                (
+                    f.centroids.as_slice(),
+                    with_magnitudes.then_some(f.magnitudes.as_slice()),
+                )
+            })
+            .collect();
         g.throughput(Throughput::Elements(fs.len() as u64));
         g.bench_function(name, |b| {
             b.iter(|| {
-                fs.iter()
-                    .filter(|f| {
+                refs.iter()
+                    .filter(|(xy, m)| {
                         solver
-                            .identify(black_box(&f.centroids), None, &camera, &cfg)
+                            .identify(black_box(xy), *m, &camera, &cfg)
                             .unwrap()
                             .is_identified()
                     })
                     .count()
             })
         });
-        if name.starts_with("12deg_512px_0.2") {
-            let refs: Vec<_> = fs.iter().map(|f| (f.centroids.as_slice(), None)).collect();
+        if name == "12deg_512px_0.2px" {
             g.bench_function(format!("{name}_batch"), |b| {
                 b.iter(|| {
                     solver

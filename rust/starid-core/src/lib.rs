@@ -4,10 +4,13 @@
 //! catalogue stars its centroids are, and where it points.
 //!
 //! ## Pipeline
-//! catalogue ([`Catalog`]) → pair index ([`PairIndex`], Mortari's k-vector) → identification
-//! ([`Solver::identify`], Pyramid with a fourth-star confirmation and full verification) →
-//! attitude from all matched stars ([`attitude::wahba_svd`]) → [`Identification`], with a bound
-//! on the probability that the solution is a false match and the time it took.
+//! catalogue ([`Catalog`]) → pair indexes ([`PairIndex`], Mortari's k-vector, over all stars and
+//! over the locally bright ones) → identification ([`Solver::identify`], Pyramid with a
+//! fourth-star confirmation and full verification; with magnitudes the brightest stars are tried
+//! against the locally bright pairs first) → attitude from all matched stars
+//! ([`attitude::wahba_from`], Gauss–Newton to Wahba's optimum; [`attitude::wahba_svd`] from
+//! scratch) → [`Identification`], with a bound on the probability that the solution is a false
+//! match and the time it took.
 //!
 //! ## Frames and units
 //! - Pixels: x right, y down, origin at the sensor's top-left corner; the principal point is the
