@@ -19,12 +19,14 @@ its own database for that field of view:
 Per scenario and solver: identified (boresight within 0.1 deg of truth), wrong (a solution more
 than 0.1 deg off), none (no solution), the identified rate among frames with >= 4 real stars,
 and the median / p99 wall time per frame measured around the call in this process. Frames with
-fewer than 3 real stars count as failures for everyone. Prints a table and writes a PNG.
+fewer than 3 real stars count as failures for everyone. Prints a table, writes a PNG and saves
+the figures as JSON (``--replot`` redraws the PNG from them).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import tempfile
@@ -164,7 +166,9 @@ def available_solvers(cat: starid.Catalog, wanted: list[str], rst_python: str) -
 
 
 # ------------------------------------------------------------------------------ benchmark
-def run(frames: int, wanted: list[str], scenarios: list[str], png: Optional[str], rst_python: str) -> None:
+def run(
+    frames: int, wanted: list[str], scenarios: list[str], png: Optional[str], rst_python: str, json_path: Optional[str]
+) -> None:
     cat = starid.Catalog.default()
     solvers = available_solvers(cat, wanted, rst_python)
     results: dict[tuple[str, str], Outcome] = {}
@@ -213,8 +217,35 @@ def run(frames: int, wanted: list[str], scenarios: list[str], png: Optional[str]
             print(line(sname, solver.name, out, frames, builds[(sname, solver.name)]), flush=True)
     print()
     print(table(results, builds, frames, scenarios, [s.name for s in solvers]))
+    summary = summarise(results, builds, frames, scenarios, [s.name for s in solvers])
+    if json_path:
+        os.makedirs(os.path.dirname(os.path.abspath(json_path)), exist_ok=True)
+        with open(json_path, "w") as fh:
+            json.dump(summary, fh, indent=1)
+        print(f"wrote {json_path}")
     if png:
-        plot(results, frames, scenarios, [s.name for s in solvers], png)
+        plot(summary, png)
+
+
+def summarise(results: dict[tuple[str, str], Outcome], builds: dict[tuple[str, str], tuple[float, float]],
+              frames: int, scenarios: list[str], solvers: list[str]) -> dict[str, Any]:
+    """Per scenario and solver: the rates (%), median and p99 ms, database build s and bytes."""
+    out: dict[str, Any] = {"frames": frames, "scenarios": scenarios, "solvers": solvers, "rows": {}}
+    for s in scenarios:
+        for v in solvers:
+            o = results[(s, v)]
+            t = np.array(o.times) * 1e3 if o.times else np.array([float("nan")])
+            out["rows"][f"{s}|{v}"] = {
+                "identified_pct": 100 * o.ok / frames,
+                "wrong_pct": 100 * o.wrong / frames,
+                "none_pct": 100 * o.none / frames,
+                "identified_ge4_pct": 100 * o.ok_ge4 / max(o.n_ge4, 1),
+                "median_ms": float(np.median(t)),
+                "p99_ms": float(np.percentile(t, 99)),
+                "db_build_s": builds[(s, v)][0],
+                "db_bytes": builds[(s, v)][1],
+            }
+    return out
 
 
 def line(sname: str, solver: str, o: Outcome, frames: int, build: tuple[float, float]) -> str:
@@ -244,7 +275,7 @@ def table(results: dict[tuple[str, str], Outcome], builds: dict[tuple[str, str],
     return "\n".join(rows)
 
 
-def plot(results: dict[tuple[str, str], Outcome], frames: int, scenarios: list[str], solvers: list[str], path: str) -> None:
+def plot(summary: dict[str, Any], path: str) -> None:
     try:
         import matplotlib
     except ImportError:
@@ -253,22 +284,23 @@ def plot(results: dict[tuple[str, str], Outcome], frames: int, scenarios: list[s
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    scenarios, solvers, rows = summary["scenarios"], summary["solvers"], summary["rows"]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.8))
     x = np.arange(len(scenarios))
     w = 0.8 / max(len(solvers), 1)
     for k, v in enumerate(solvers):
-        rate = [100 * results[(s, v)].ok / frames for s in scenarios]
-        med = [np.median(results[(s, v)].times) * 1e3 if results[(s, v)].times else np.nan for s in scenarios]
-        a1.bar(x + k * w, rate, w, label=v)
-        a2.bar(x + k * w, med, w, label=v)
+        a1.bar(x + k * w, [rows[f"{s}|{v}"]["identified_pct"] for s in scenarios], w, label=v)
+        a2.bar(x + k * w, [rows[f"{s}|{v}"]["median_ms"] for s in scenarios], w, label=v)
     for a, title in ((a1, "identified (%)"), (a2, "median time per frame (ms, log)")):
         a.set_xticks(x + 0.4 - w / 2)
         a.set_xticklabels([s.replace(" ", "\n", 1) for s in scenarios], fontsize=7)
         a.set_title(title)
     a2.set_yscale("log")
     a1.set_ylim(0, 100)
-    a1.legend(fontsize=8)
-    fig.tight_layout()
+    handles, labels = a1.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="upper center", ncol=len(solvers), fontsize=9, frameon=False)
+    fig.suptitle(f"{summary['frames']} frames per scenario", y=0.02, fontsize=8)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.93))
     fig.savefig(path, dpi=110)
     print(f"wrote {path}")
 
@@ -280,9 +312,15 @@ def main() -> None:
     p.add_argument("--rst-python", default=".venv-rst/bin/python", help="python of the ruststartracker environment")
     p.add_argument("--scenarios", default="all", help="comma-separated names or 'all'")
     p.add_argument("--png", default="peers.png")
+    p.add_argument("--json", default="bench-results/peers.json", help="where to save the figures (for --replot)")
+    p.add_argument("--replot", metavar="JSON", help="only draw the PNG from a saved run")
     args = p.parse_args()
+    if args.replot:
+        with open(args.replot) as fh:
+            plot(json.load(fh), args.png)
+        return
     scen = list(SCENARIOS) if args.scenarios == "all" else [s.strip() for s in args.scenarios.split(",")]
-    run(args.frames, [s.strip() for s in args.solvers.split(",")], scen, args.png, args.rst_python)
+    run(args.frames, [s.strip() for s in args.solvers.split(",")], scen, args.png, args.rst_python, args.json)
 
 
 if __name__ == "__main__":
