@@ -105,7 +105,9 @@ def test_threads_share_a_catalogue(contest: starid.Catalog) -> None:
 
 def test_index_info(contest: starid.Catalog) -> None:
     info = contest.index_info(12.0, (512, 512))
-    assert info["pairs"] > 100_000 and info["memory_bytes"] < 5_000_000
+    assert info["pairs"] > 100_000 and 0 < info["bright_pairs"] < info["pairs"] / 4
+    # Both indexes, 9 bytes a pair: under the 4 MB the 12-degree contest index must fit in.
+    assert 8 * (info["pairs"] + info["bright_pairs"]) < info["memory_bytes"] < 4_000_000
 
 
 def test_results_are_immutable_and_pickle() -> None:

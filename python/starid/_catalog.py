@@ -229,9 +229,12 @@ class Catalog:
         return Catalog._wrap(self._native.filter_mag(float(mag_limit)), self.name)
 
     def index_info(self, fov_deg: float, image_size: tuple[float, float]) -> dict[str, float]:
-        """Build (or fetch) the pair index used for frames of this geometry; report its size.
+        """Build (or fetch) the pair indexes used for frames of this geometry; report their size.
 
-        Returns a dict with ``pairs``, ``max_angle_deg``, ``memory_bytes`` and ``build_time_s``.
+        Returns a dict with ``pairs`` (all pairs closer than the indexed angle), ``bright_pairs``
+        (pairs among locally bright stars, searched first when magnitudes are given; 0 when
+        there is no such index), ``max_angle_deg``, ``memory_bytes`` (both indexes) and
+        ``build_time_s`` (both indexes).
         """
         from ._identify import _camera_diagonal_deg
 

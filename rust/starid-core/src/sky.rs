@@ -335,17 +335,22 @@ mod tests {
     use crate::geometry::radec_to_unit;
     use rand::{Rng, SeedableRng};
 
-    #[test]
-    fn cone_query_matches_brute_force() {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
-        let v: Vec<_> = (0..3000)
+    /// `n` directions uniform on the sphere.
+    fn random_sky(rng: &mut impl Rng, n: usize) -> Vec<Vector3<f64>> {
+        (0..n)
             .map(|_| {
                 radec_to_unit(
                     rng.random_range(0.0..TAU),
                     rng.random_range(-1.0f64..1.0).asin(),
                 )
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn cone_query_matches_brute_force() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let v = random_sky(&mut rng, 3000);
         let idx = ZoneIndex::new(&v, 1f64.to_radians());
         for _ in 0..300 {
             let c = radec_to_unit(
@@ -391,17 +396,11 @@ mod tests {
             assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1));
         }
     }
+
     #[test]
     fn cell_queries_match_brute_force_across_faces_and_corners() {
         let mut rng = rand::rngs::StdRng::seed_from_u64(5);
-        let v: Vec<_> = (0..8000)
-            .map(|_| {
-                radec_to_unit(
-                    rng.random_range(0.0..TAU),
-                    rng.random_range(-1.0f64..1.0).asin(),
-                )
-            })
-            .collect();
+        let v = random_sky(&mut rng, 8000);
         let cells = CellIndex::new(&v);
         let mut answered = 0;
         for q in 0..20_000 {
