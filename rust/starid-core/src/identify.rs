@@ -393,6 +393,9 @@ impl Solver {
         }
         passes.push((&self.pairs, config.max_search_stars, *last, usize::MAX));
         let stride = n.min(config.max_search_stars.max(BRIGHT_SEARCH_STARS));
+        let mut scratch = SCRATCH.with(|c| c.take());
+        scratch.angles.clear();
+        scratch.angles.resize(stride * stride, f64::NAN);
         let mut search = Search {
             solver: self,
             pairs: &self.pairs,
@@ -404,8 +407,7 @@ impl Solver {
             hypotheses: 0,
             pairs_visited: 0,
             deadline: config.timeout.map(|t| start + t),
-            scratch: SCRATCH.with(|c| c.take()),
-            angles: vec![f64::NAN; stride * stride],
+            scratch,
             stride,
         };
         let mut status = Status::NoMatch;
@@ -556,6 +558,9 @@ struct Scratch {
     fitted: Vec<Option<u32>>,
     /// Instrument minus catalogue magnitude of the matches, then their absolute deviations.
     mag_offsets: Vec<f64>,
+    /// Angles between the search stars (row-major with `Search::stride`, NaN until first
+    /// needed), kept across the passes: the observed directions do not change between them.
+    angles: Vec<f64>,
 }
 
 struct Search<'a> {
@@ -572,9 +577,7 @@ struct Search<'a> {
     pairs_visited: usize,
     deadline: Option<Instant>,
     scratch: Scratch,
-    /// Angles between the search stars (row-major with `stride`, NaN until first needed), kept
-    /// across the passes: the observed directions do not change between them.
-    angles: Vec<f64>,
+    /// Row length of `scratch.angles`: the most search stars of any pass.
     stride: usize,
 }
 
@@ -623,9 +626,9 @@ impl Search<'_> {
         sigma_px: f64,
         cap: usize,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
-        let mut angle = std::mem::take(&mut self.angles);
+        let mut angle = std::mem::take(&mut self.scratch.angles);
         let result = self.run_step(stars, sigma_px, cap, &mut angle);
-        self.angles = angle;
+        self.scratch.angles = angle;
         result
     }
 
