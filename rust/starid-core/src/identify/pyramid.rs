@@ -1,0 +1,306 @@
+//! Pyramid (Mortari et al. 2004): triangles of observed stars in an order that varies all
+//! three quickly, catalogue triangles through the k-vector, a fourth star to confirm.
+
+use std::f64::consts::{PI, SQRT_2};
+use std::time::Instant;
+
+use super::verify::binomial_tail;
+use super::{Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK};
+use crate::attitude::{triad, wahba_from};
+
+impl Search<'_> {
+    /// One pass: Pyramid search over the brightest `stars` centroids in `self.pairs` at
+    /// centroid noise `sigma_px`, at most `cap` triangles.
+    pub(super) fn run(
+        &mut self,
+        stars: usize,
+        sigma_px: f64,
+        cap: usize,
+    ) -> std::result::Result<Option<Verified>, SearchLimit> {
+        let mut angle = std::mem::take(&mut self.scratch.angles);
+        let result = self.run_step(stars, sigma_px, cap, &mut angle);
+        self.scratch.angles = angle;
+        result
+    }
+
+    pub(super) fn run_step(
+        &mut self,
+        stars: usize,
+        sigma_px: f64,
+        cap: usize,
+        angle: &mut [f64],
+    ) -> std::result::Result<Option<Verified>, SearchLimit> {
+        let f = self.camera.focal_length_px;
+        let sigma_rad = sigma_px / f;
+        let eps = 3.0 * SQRT_2 * sigma_rad + 1e-7;
+        let r_confirm = 8.0 * sigma_rad + 2e-7;
+        // Fourth stars needed to confirm a triangle: enough that chance alone (a centroid landing
+        // within r_confirm of some star, at twice the mean sky density) is unlikely to supply them.
+        let cat_len = self.solver.catalog.len() as f64;
+        let p_chance = (2.0 * cat_len / (4.0 * PI) * PI * r_confirm * r_confirm).min(1.0);
+        let others = self.order.len() - 3;
+        let confirmations = (1..=others)
+            .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
+            .unwrap_or(others)
+            .max(1);
+        let max_angle = self.pairs.max_angle_rad() - eps;
+        let stride = self.stride;
+        let s = stars.min(stride);
+        let obs = self.obs[0];
+        let order: &[usize] = self.order;
+        let search = &order[..s];
+        // Angles are computed when a triangle first needs them (most frames stop after a few
+        // triangles, long before all s² pairs are visited).
+        let mut pair_angle = |a: usize, b: usize| -> f64 {
+            let t = angle[a * stride + b];
+            if !t.is_nan() {
+                return t;
+            }
+            let t = crate::geometry::angle_between(&obs[search[a]], &obs[search[b]]);
+            angle[a * stride + b] = t;
+            angle[b * stride + a] = t;
+            t
+        };
+        let mut tried = 0usize;
+        let mut best: Option<Verified> = None;
+        let mut stop_after = usize::MAX;
+        // Mortari's Pyramid order: vary all three stars quickly so a false star cannot block.
+        for dj in 1..s.saturating_sub(1) {
+            for dk in 1..s - dj {
+                for a in 0..s - dj - dk {
+                    let (b, c) = (a + dj, a + dj + dk);
+                    let (t_ij, t_ik, t_jk) = (pair_angle(a, b), pair_angle(a, c), pair_angle(b, c));
+                    let (lo, hi) = (t_ij.min(t_ik).min(t_jk), t_ij.max(t_ik).max(t_jk));
+                    if hi > max_angle || lo < 2.0 * eps {
+                        continue;
+                    }
+                    let (i, j, k) = (search[a], search[b], search[c]);
+                    let tp_obs = obs[i].dot(&obs[j].cross(&obs[k]));
+                    // The handedness must survive the noise, or the triangle cannot tell a mirrored frame.
+                    if tp_obs.abs() < 3.0 * sigma_rad * (t_ij + t_ik + t_jk) {
+                        continue;
+                    }
+                    if tried >= cap.min(stop_after) {
+                        return Ok(self.accept(best));
+                    }
+                    let why = if self.pairs_visited >= self.config.max_pairs_visited {
+                        Some(Status::SearchLimit)
+                    } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+                        Some(Status::Timeout)
+                    } else {
+                        None
+                    };
+                    if let Some(why) = why {
+                        return self
+                            .accept(best)
+                            .map_or(Err(SearchLimit(why)), |v| Ok(Some(v)));
+                    }
+                    tried += 1;
+                    let found = match self.try_triangle(
+                        [i, j, k],
+                        [t_ij, t_ik, t_jk],
+                        tp_obs,
+                        eps,
+                        (r_confirm, confirmations),
+                        sigma_rad,
+                    ) {
+                        Ok(found) => found,
+                        Err(limit) => return self.accept(best).map_or(Err(limit), |v| Ok(Some(v))),
+                    };
+                    if let Some(v) = found {
+                        if v.tail * (self.hypotheses as f64) <= STRONG_FALSE_MATCH_PROB {
+                            return Ok(self.accept(Some(v)));
+                        }
+                        // A weak solution: look a little further for a stronger one.
+                        stop_after = stop_after.min(tried + TRIANGLES_AFTER_WEAK);
+                        if best.as_ref().is_none_or(|b| v.tail < b.tail) {
+                            best = Some(v);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(self.accept(best))
+    }
+
+    /// The solution, if its bound over every hypothesis tested so far passes.
+    pub(super) fn accept(&self, v: Option<Verified>) -> Option<Verified> {
+        let mut v = v?;
+        v.false_prob = (self.hypotheses.max(1) as f64 * v.tail).min(1.0);
+        (v.false_prob <= self.config.max_false_match_prob).then_some(v)
+    }
+
+    pub(super) fn try_triangle(
+        &mut self,
+        [i, j, k]: [usize; 3],
+        [t_ij, t_ik, t_jk]: [f64; 3],
+        tp_obs: f64,
+        eps: f64,
+        (r_confirm, confirmations): (f64, usize),
+        sigma_rad: f64,
+    ) -> std::result::Result<Option<Verified>, SearchLimit> {
+        let mut triangles = std::mem::take(&mut self.scratch.triangles);
+        self.catalogue_triangles(t_ij, t_ik, t_jk, eps, &mut triangles);
+        let cat = self.solver.catalog.vectors();
+        let mut result = Ok(None);
+        for &[ca, cb, cc] in &triangles {
+            let (va, vb, vc) = (&cat[ca as usize], &cat[cb as usize], &cat[cc as usize]);
+            let mirrored = (va.dot(&vb.cross(vc)) > 0.0) != (tp_obs > 0.0);
+            if mirrored && !self.config.allow_mirrored {
+                continue;
+            }
+            if self.hypotheses >= self.config.max_hypotheses {
+                result = Err(SearchLimit(Status::SearchLimit));
+                break;
+            }
+            if self.hypotheses % 64 == 0 && self.deadline.is_some_and(|d| Instant::now() >= d) {
+                result = Err(SearchLimit(Status::Timeout));
+                break;
+            }
+            self.hypotheses += 1;
+            let obs = self.obs[usize::from(mirrored)];
+            let Some(r) = triad(&obs[i], &obs[j], va, vb)
+                .and_then(|start| wahba_from(&[obs[i], obs[j], obs[k]], &[*va, *vb, *vc], &start))
+            else {
+                continue;
+            };
+            if !self.confirmed(
+                &r,
+                obs,
+                [i, j, k],
+                [ca, cb, cc],
+                (r_confirm, confirmations),
+                sigma_rad,
+            ) {
+                continue;
+            }
+            if let Some(v) = self.verify(r, mirrored, r_confirm, sigma_rad) {
+                result = Ok(Some(v));
+                break;
+            }
+        }
+        self.scratch.triangles = triangles;
+        result
+    }
+
+    /// Catalogue triangles `(a, b, c)` with `|a b| ≈ t_ij`, `|a c| ≈ t_ik`, `|b c| ≈ t_jk`.
+    pub(super) fn catalogue_triangles(
+        &mut self,
+        t_ij: f64,
+        t_ik: f64,
+        t_jk: f64,
+        eps: f64,
+        out: &mut Vec<[u32; 3]>,
+    ) {
+        out.clear();
+        let idx = self.pairs;
+        let (r_ij, r_ik, r_jk) = (
+            idx.range(t_ij - eps, t_ij + eps),
+            idx.range(t_ik - eps, t_ik + eps),
+            idx.range(t_jk - eps, t_jk + eps),
+        );
+        self.pairs_visited += r_ij.len() + r_ik.len() + r_jk.len();
+        if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
+            return;
+        }
+        // Walk the sparser of the two sides at one vertex, look the other up through an adjacency
+        // list, and check the third side with one dot product against its cosine bounds: one
+        // adjacency fill per triangle instead of two, and no list walk for the closing side.
+        let n_cat = self.solver.catalog.len();
+        let cat = self.solver.catalog.vectors();
+        // Sides as (range, vertex pair) with vertices 0 = i, 1 = j, 2 = k.
+        let sides = [(r_ij, (0usize, 1usize)), (r_ik, (0, 2)), (r_jk, (1, 2))];
+        let closing = (0..3)
+            .max_by_key(|&e| sides[e].0.len())
+            .expect("three sides");
+        let (mut walk, mut look) = match closing {
+            0 => (sides[1].clone(), sides[2].clone()),
+            1 => (sides[0].clone(), sides[2].clone()),
+            _ => (sides[0].clone(), sides[1].clone()),
+        };
+        if walk.0.len() > look.0.len() {
+            std::mem::swap(&mut walk, &mut look);
+        }
+        // The shared vertex of the walked and looked-up sides, and their other ends.
+        let (w0, w1) = walk.1;
+        let (l0, l1) = look.1;
+        let shared = if w0 == l0 || w0 == l1 { w0 } else { w1 };
+        let walk_other = if w0 == shared { w1 } else { w0 };
+        let look_other = if l0 == shared { l1 } else { l0 };
+        let t_close = [t_ij, t_ik, t_jk][closing];
+        let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
+        self.scratch.adj_ik.fill(idx.pairs(look.0.clone()), n_cat);
+        let adj = &self.scratch.adj_ik;
+        for [p, q] in idx.pairs(walk.0) {
+            for (x, y) in [(p, q), (q, p)] {
+                let vy = &cat[y as usize];
+                for z in adj.partners(x) {
+                    let c = vy.dot(&cat[z as usize]);
+                    if c <= cos_hi && c >= cos_lo && z != y {
+                        let mut t = [0u32; 3];
+                        t[shared] = x;
+                        t[walk_other] = y;
+                        t[look_other] = z;
+                        out.push(t);
+                    }
+                }
+            }
+        }
+    }
+
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Adjacency lists of a set of catalogue pairs (both orientations) as linked lists indexed by
+/// catalogue star: O(1) to look up, O(pairs) to fill and to reset, no sorting.
+#[derive(Default)]
+pub(super) struct Adjacency {
+    head: Vec<u32>,
+    next: Vec<u32>,
+    partner: Vec<u32>,
+    touched: Vec<u32>,
+}
+
+impl Adjacency {
+    pub(super) fn fill(&mut self, pairs: impl Iterator<Item = [u32; 2]>, n_cat: usize) {
+        for &s in &self.touched {
+            self.head[s as usize] = NONE;
+        }
+        if self.head.len() != n_cat {
+            self.head.clear();
+            self.head.resize(n_cat, NONE);
+        }
+        self.touched.clear();
+        self.next.clear();
+        self.partner.clear();
+        for [p, q] in pairs {
+            self.push(p, q);
+            self.push(q, p);
+        }
+    }
+
+    #[inline]
+    pub(super) fn push(&mut self, star: u32, partner: u32) {
+        let h = &mut self.head[star as usize];
+        if *h == NONE {
+            self.touched.push(star);
+        }
+        self.next.push(*h);
+        self.partner.push(partner);
+        *h = (self.partner.len() - 1) as u32;
+    }
+
+    #[inline]
+    pub(super) fn partners(&self, star: u32) -> impl Iterator<Item = u32> + '_ {
+        let mut at = self.head[star as usize];
+        std::iter::from_fn(move || {
+            (at != NONE).then(|| {
+                let p = self.partner[at as usize];
+                at = self.next[at as usize];
+                p
+            })
+        })
+    }
+}
+

@@ -1,0 +1,309 @@
+//! The shared verification: every centroid matched to its nearest catalogue star, the attitude
+//! re-solved from all matches, magnitude consistency, and the bound on the chance of a false match.
+
+use std::f64::consts::PI;
+
+use nalgebra::{Rotation3, Vector3};
+
+use super::{Search, Verified, MAG_BRIGHTER_LIMIT, MAG_CHECK_MIN_MATCHES, MAG_OUTLIER_SIGMAS, MATCH_RADIUS_SIGMAS};
+use crate::attitude::wahba_from;
+use crate::catalog::Catalog;
+use crate::sky::Radius;
+
+impl Search<'_> {
+    /// Whether at least `needed` other centroids land on catalogue stars under attitude `r`
+    /// (the Pyramid's fourth star; more of them in crowded frames). Stops as soon as the answer
+    /// is known either way.
+    pub(super) fn confirmed(
+        &self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        used: [usize; 3],
+        used_cat: [u32; 3],
+        (radius, needed): (f64, usize),
+        sigma_rad: f64,
+    ) -> bool {
+        let catalog = &*self.solver.catalog;
+        let radius = Radius::new(radius);
+        let mut remaining = self.order.len() - 3;
+        let mut found = 0;
+        for &o in self.order.iter().filter(|o| !used.contains(o)) {
+            if found + remaining < needed {
+                return false;
+            }
+            remaining -= 1;
+            let w = r.inverse_transform_vector(&obs[o]);
+            if let Some((star, _)) = unambiguous_nearest(catalog, &w, radius, sigma_rad) {
+                if !used_cat.contains(&star) {
+                    found += 1;
+                    if found >= needed {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Match all centroids, re-solve the attitude, adapt the radius to the residuals and bound
+    /// the false-match probability. `None` if the hypothesis does not verify.
+    pub(super) fn verify(
+        &mut self,
+        r0: Rotation3<f64>,
+        mirrored: bool,
+        r_confirm: f64,
+        sigma_rad: f64,
+    ) -> Option<Verified> {
+        let obs = self.obs[usize::from(mirrored)];
+        let n = obs.len();
+        let f = self.camera.focal_length_px;
+        let mut r = r0;
+        let mut radius = r_confirm;
+        let mut sigma = sigma_rad;
+        // Match and re-solve; then the radius follows the noise estimated from the residuals
+        // (5σ, never below half the ladder's σ, so that four stars cannot talk it down to nothing).
+        // When a pass matches exactly the stars the attitude was fitted to, the attitude, the
+        // noise and the radius would all come out the same: a fixed point, and its matches are final.
+        self.scratch.fitted.clear();
+        let mut matched = 0;
+        let mut fixed_point = false;
+        for _ in 0..4 {
+            matched = self.match_all(&r, obs, radius, sigma);
+            if matched < 3 {
+                return None;
+            }
+            let s = &mut self.scratch;
+            if s.matches
+                .iter()
+                .map(|m| m.map(|(c, _)| c))
+                .eq(s.fitted.iter().copied())
+            {
+                fixed_point = true;
+                break;
+            }
+            s.fitted.clear();
+            s.fitted.extend(s.matches.iter().map(|m| m.map(|(c, _)| c)));
+            let (o_m, r_m) = (&s.obs_matched, &s.ref_matched);
+            r = wahba_from(o_m, r_m, &r)?;
+            let sum_sq: f64 = o_m
+                .iter()
+                .zip(r_m)
+                .map(|(o, c)| (o - r * c).norm_squared())
+                .sum();
+            // E|d|² = 2σ² per star, less the three attitude degrees of freedom.
+            let dof = (2 * matched).saturating_sub(3).max(1) as f64;
+            sigma = (sum_sq / dof).sqrt().max(0.5 * sigma_rad);
+            // Never below the step's own radius: residuals of a (possibly false) fit must not
+            // talk the radius down, or the false-match bound would be computed after the fact.
+            let new_radius = (4.0 * sigma).max(MATCH_RADIUS_SIGMAS * sigma_rad) + 1e-7;
+            let settled = (new_radius - radius).abs() <= 0.05 * radius;
+            radius = new_radius;
+            if settled {
+                break;
+            }
+        }
+        if !fixed_point {
+            matched = self.match_all(&r, obs, radius, sigma);
+        }
+        if self.drop_too_bright() > 0 {
+            // Fewer matches: refit, and the bound below only grows.
+            matched = self.collect_matched(obs);
+            if matched < 3 {
+                return None;
+            }
+            r = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)?;
+            let cat = self.solver.catalog.vectors();
+            for (o, m) in self.scratch.matches.iter_mut().enumerate() {
+                if let Some((star, d)) = m {
+                    *d = r
+                        .inverse_transform_vector(&obs[o])
+                        .cross(&cat[*star as usize])
+                        .norm();
+                }
+            }
+        }
+        if matched < self.config.min_matches {
+            return None;
+        }
+        let tail = self.match_tail(&r, n, matched, radius);
+        if self.hypotheses as f64 * tail > self.config.max_false_match_prob {
+            return None;
+        }
+        Some(Verified {
+            r,
+            mirrored,
+            matches: self.scratch.matches.clone(),
+            matched,
+            sigma_px: sigma * f,
+            radius_rad: radius,
+            tail,
+            false_prob: f64::NAN,
+        })
+    }
+
+    /// Nearest-star match of every centroid under `r`, each catalogue star claimed at most once.
+    /// Fills `scratch.matches` (per centroid) and the matched vector lists; returns the count.
+    pub(super) fn match_all(
+        &mut self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        radius: f64,
+        sigma_rad: f64,
+    ) -> usize {
+        let catalog = &*self.solver.catalog;
+        let radius = Radius::new(radius);
+        let s = &mut self.scratch;
+        s.matches.clear();
+        s.claim.clear();
+        for (o, v) in obs.iter().enumerate() {
+            let w = r.inverse_transform_vector(v);
+            let m = unambiguous_nearest(catalog, &w, radius, sigma_rad);
+            if let Some((star, d)) = m {
+                s.claim.push((star, o as u32, d));
+            }
+            s.matches.push(m);
+        }
+        // A catalogue star claimed by two centroids is ambiguous: neither gets it.
+        s.claim.sort_unstable_by_key(|c| c.0);
+        for w in 1..s.claim.len() {
+            if s.claim[w].0 == s.claim[w - 1].0 {
+                s.matches[s.claim[w].1 as usize] = None;
+                s.matches[s.claim[w - 1].1 as usize] = None;
+            }
+        }
+        self.collect_matched(obs)
+    }
+
+    /// Fill the matched vector lists from `scratch.matches`; returns their length.
+    pub(super) fn collect_matched(&mut self, obs: &[Vector3<f64>]) -> usize {
+        let cat = self.solver.catalog.vectors();
+        let s = &mut self.scratch;
+        s.obs_matched.clear();
+        s.ref_matched.clear();
+        for (o, m) in s.matches.iter().enumerate() {
+            if let Some((star, _)) = m {
+                s.obs_matched.push(obs[o]);
+                s.ref_matched.push(cat[*star as usize]);
+            }
+        }
+        s.obs_matched.len()
+    }
+
+    /// With magnitudes, unmatch centroids far brighter than their catalogue star (see
+    /// [`MAG_BRIGHTER_LIMIT`]); returns how many.
+    pub(super) fn drop_too_bright(&mut self) -> usize {
+        let Some(mags) = self.magnitudes else {
+            return 0;
+        };
+        let cat_mag = self.solver.catalog.mag();
+        let s = &mut self.scratch;
+        s.mag_offsets.clear();
+        s.mag_offsets.extend(
+            s.matches
+                .iter()
+                .zip(mags)
+                .filter_map(|(m, &obs_mag)| m.map(|(star, _)| obs_mag - cat_mag[star as usize])),
+        );
+        let n = s.mag_offsets.len();
+        if n < MAG_CHECK_MIN_MATCHES {
+            return 0;
+        }
+        let median = |v: &mut [f64]| -> f64 {
+            v.sort_unstable_by(f64::total_cmp);
+            let k = v.len();
+            0.5 * (v[(k - 1) / 2] + v[k / 2])
+        };
+        let offset = median(&mut s.mag_offsets);
+        for d in &mut s.mag_offsets {
+            *d = (*d - offset).abs();
+        }
+        let spread = 1.4826 * median(&mut s.mag_offsets);
+        let limit = MAG_BRIGHTER_LIMIT.max(MAG_OUTLIER_SIGMAS * spread);
+        let mut dropped = 0;
+        for (m, &obs_mag) in s.matches.iter_mut().zip(mags) {
+            if let Some((star, _)) = *m {
+                if obs_mag - cat_mag[star as usize] < offset - limit {
+                    *m = None;
+                    dropped += 1;
+                }
+            }
+        }
+        dropped
+    }
+
+    /// `P(Bin(n − 3, p) ≥ m − 3)` with `p` from the local catalogue density.
+    pub(super) fn match_tail(&self, r: &Rotation3<f64>, n: usize, matched: usize, radius: f64) -> f64 {
+        let half_diag = 0.5 * self.camera.diagonal_fov_rad();
+        let boresight = r.inverse_transform_vector(&Vector3::z());
+        let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
+        let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
+        let density = in_field.max(1) as f64 / cone_sr;
+        let p = (density * PI * radius * radius).min(1.0);
+        binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p)
+    }
+}
+
+/// Log-likelihood ratio the nearest catalogue star must win by over the second nearest for a
+/// match to count (ln 1000): an unresolved double is left unmatched rather than guessed.
+const AMBIGUITY_LOG_ODDS: f64 = 6.907755278982137;
+
+/// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as likely
+/// (see [`AMBIGUITY_LOG_ODDS`]): an ambiguous match is no match.
+fn unambiguous_nearest(
+    catalog: &Catalog,
+    w: &Vector3<f64>,
+    radius: Radius,
+    sigma_rad: f64,
+) -> Option<(u32, f64)> {
+    let cat = catalog.vectors();
+    let (best, second) = catalog.nearest_two(w, radius);
+    let (star, _) = best?;
+    // Match radii are far below a degree: the sine of the angle (|w × c|, no libm call) is the
+    // angle to better than 1e-5 relative there.
+    let d1 = w.cross(&cat[star as usize]).norm();
+    if let Some((s2, _)) = second {
+        let d2 = w.cross(&cat[s2 as usize]).norm();
+        // Decisive only when the nearer star is AMBIGUITY_LOG_ODDS times likelier under
+        // Gaussian noise: (d2² − d1²) / 2σ² ≥ ln(odds).
+        if d2 * d2 - d1 * d1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
+            return None;
+        }
+    }
+    Some((star, d1))
+}
+
+/// `P(X ≥ m)` for `X ~ Binomial(n, p)`, summed in log space.
+pub fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
+    if m == 0 {
+        return 1.0;
+    }
+    if m > n || p <= 0.0 {
+        return 0.0;
+    }
+    if p >= 1.0 {
+        return 1.0;
+    }
+    let (nf, mf) = (n as f64, m as f64);
+    // Summing upwards from m loses everything to underflow when m lies far below the mean (the
+    // first terms are ~0 while the mass sits near n·p): there, use the complement,
+    // P(X ≥ m) = 1 − P(X ≤ m − 1) = 1 − P(n − X ≥ n − m + 1), n − X ~ Bin(n, 1 − p).
+    if mf <= nf * p {
+        return (1.0 - binomial_tail(n, n - m + 1, 1.0 - p)).clamp(0.0, 1.0);
+    }
+    let ln_choose: f64 = (1..=m)
+        .map(|i| ((nf - mf + i as f64) / i as f64).ln())
+        .sum();
+    let mut term = (ln_choose + mf * p.ln() + (nf - mf) * (-p).ln_1p()).exp();
+    let ratio = p / (1.0 - p);
+    let mut sum = 0.0;
+    for k in m..=n {
+        sum += term;
+        let next = term * (nf - k as f64) / (k as f64 + 1.0) * ratio;
+        if next < sum * 1e-17 && (nf - k as f64) / (k as f64 + 1.0) * ratio < 1.0 {
+            break;
+        }
+        term = next;
+    }
+    sum.min(1.0)
+}
+
