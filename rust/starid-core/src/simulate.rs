@@ -10,6 +10,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal, StandardNormal};
 
+
 use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
@@ -34,6 +35,31 @@ pub struct SimConfig {
     /// First radial distortion coefficient on normalised coordinates: a star at `(u, v)`
     /// (camera `x/z`, `y/z`) is imaged at `c + f·(u, v)·(1 + k1·(u² + v²))`.
     pub radial_k1: f64,
+    /// When set, the number of false stars is drawn uniformly from `false_stars..=max`.
+    pub false_stars_max: Option<usize>,
+    /// How false stars get their magnitudes.
+    pub false_star_mags: FalseStarMags,
+    /// Photon noise: 1σ magnitude error of a star at `mag_limit` (fainter stars more, brighter
+    /// less, as `10^(0.2·(m − limit))`), added in quadrature to `mag_noise`. With it, a star is
+    /// seen when its *noisy* magnitude is within the limit, as a detector decides.
+    pub photon_sigma_at_limit: f64,
+    /// Stars the camera sees but the catalogue lacks (a deep field against an incomplete
+    /// catalogue): their number is Poisson with this mean per real star, magnitudes uniform in
+    /// `[uncatalogued_mag_min, mag_limit]`. They count as false stars in the truth.
+    pub uncatalogued_per_real: f64,
+    /// See [`SimConfig::uncatalogued_per_real`].
+    pub uncatalogued_mag_min: f64,
+}
+
+/// How a simulated false star gets its magnitude.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum FalseStarMags {
+    /// Uniform in `[limit − 3, limit + 0.5]` (`[4, 7]` without a limit).
+    Uniform,
+    /// The magnitude of a random catalogue star within the limit: brightness alone cannot tell
+    /// a false star from a real one (hot pixels, planets and satellites of every brightness).
+    FromCatalog,
 }
 
 impl Default for SimConfig {
@@ -47,7 +73,117 @@ impl Default for SimConfig {
             drop_fraction: 0.0,
             mirrored: false,
             radial_k1: 0.0,
+            false_stars_max: None,
+            false_star_mags: FalseStarMags::Uniform,
+            photon_sigma_at_limit: 0.0,
+            uncatalogued_per_real: 0.0,
+            uncatalogued_mag_min: 8.0,
         }
+    }
+}
+
+/// Scene families in the style of ESA's Kelvins "Star Trackers: First Contact" competition and
+/// of OpenStarTracker's scene simulator: the camera, what it sees and the catalogue depth each
+/// is meant to be identified against. Scenes of odd seed are mirrored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Family {
+    /// Kelvins: 1920×1440 px, 10°×7.5° (18.75″/px), stars to magnitude 6.2 after photometric
+    /// noise, 0–80 false spots (mean 40) with catalogue-like magnitudes, 0.2 px centroid noise.
+    K1,
+    /// Narrow: 1392×1080 px, 6°×4.66°, stars to 7.75, 0–10 false spots (a catalogue to 8).
+    K2,
+    /// Deep: 1392×1040 px at 15.78″/px (6.1°×4.56°), stars to 11 against a catalogue to 11,
+    /// 0–2 false spots, plus stars the catalogue lacks (0.3 per catalogued star, 8 to 11 mag).
+    K3,
+}
+
+impl Family {
+    /// Every family.
+    pub const ALL: [Family; 3] = [Family::K1, Family::K2, Family::K3];
+
+    /// Short name: `K1`, `K2`, `K3`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::K1 => "K1",
+            Self::K2 => "K2",
+            Self::K3 => "K3",
+        }
+    }
+
+    /// The family named `name` (case-insensitive).
+    ///
+    /// # Errors
+    /// `InvalidInput` for an unknown name.
+    pub fn from_name(name: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name().eq_ignore_ascii_case(name))
+            .ok_or_else(|| {
+                Error::invalid_input(format!("unknown scene family {name:?} (K1, K2 or K3)"))
+            })
+    }
+
+    /// The family's camera.
+    pub fn camera(self) -> Camera {
+        let c = match self {
+            Self::K1 => Camera::from_fov(10f64.to_radians(), 1920.0, 1440.0),
+            Self::K2 => Camera::from_fov(6f64.to_radians(), 1392.0, 1080.0),
+            Self::K3 => Camera::from_focal_length(206_264.806 / 15.78, 1392.0, 1040.0),
+        };
+        c.expect("family cameras are valid")
+    }
+
+    /// Faintest catalogue magnitude the family is meant to be identified against (Hp or V).
+    pub fn catalog_mag_limit(self) -> f64 {
+        match self {
+            Self::K1 => 6.5,
+            Self::K2 => 8.0,
+            Self::K3 => 11.0,
+        }
+    }
+
+    /// What scene `seed` of the family simulates (odd seeds mirrored).
+    pub fn sim_config(self, seed: u64) -> SimConfig {
+        let base = SimConfig {
+            noise_px: 0.2,
+            mag_noise: 0.02,
+            photon_sigma_at_limit: 0.1,
+            false_star_mags: FalseStarMags::FromCatalog,
+            mirrored: seed % 2 == 1,
+            ..Default::default()
+        };
+        match self {
+            Self::K1 => SimConfig {
+                mag_limit: Some(6.2),
+                false_stars: 0,
+                false_stars_max: Some(80),
+                ..base
+            },
+            Self::K2 => SimConfig {
+                mag_limit: Some(7.75),
+                false_stars: 0,
+                false_stars_max: Some(10),
+                ..base
+            },
+            Self::K3 => SimConfig {
+                mag_limit: Some(11.0),
+                false_stars: 0,
+                false_stars_max: Some(2),
+                uncatalogued_per_real: 0.3,
+                uncatalogued_mag_min: 8.0,
+                ..base
+            },
+        }
+    }
+
+    /// Scene `seed` of the family over `catalog` (which should reach
+    /// [`Family::catalog_mag_limit`]).
+    ///
+    /// # Errors
+    /// As [`simulate`].
+    pub fn simulate(self, catalog: &Catalog, seed: u64) -> Result<SimFrame> {
+        simulate(catalog, &self.camera(), &self.sim_config(seed), seed)
     }
 }
 
@@ -151,12 +287,30 @@ pub fn simulate(
             config.radial_k1
         )));
     }
+    if config.false_stars_max.is_some_and(|m| m < config.false_stars || m > 100_000) {
+        return Err(Error::invalid_input(format!(
+            "false_stars_max must be within [false_stars, 100000], got {:?}",
+            config.false_stars_max
+        )));
+    }
+    for (name, v) in [
+        ("photon_sigma_at_limit", config.photon_sigma_at_limit),
+        ("uncatalogued_per_real", config.uncatalogued_per_real),
+    ] {
+        if !v.is_finite() || !(0.0..=100.0).contains(&v) {
+            return Err(Error::invalid_input(format!(
+                "{name} must be finite and within [0, 100], got {v}"
+            )));
+        }
+    }
+    if !config.uncatalogued_mag_min.is_finite() {
+        return Err(Error::invalid_input("uncatalogued_mag_min must be finite"));
+    }
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let r = config
         .r_icrs_to_cam
         .unwrap_or_else(|| random_rotation(&mut rng));
     let noise = Normal::new(0.0, config.noise_px).expect("noise checked above");
-    let mag_noise = Normal::new(0.0, config.mag_noise).expect("noise checked above");
     let (w, h) = (camera.width_px, camera.height_px);
     let boresight = r.inverse_transform_vector(&Vector3::z());
     let mut stars = catalog.in_cone(&boresight, 0.5 * camera.diagonal_fov_rad() + 1e-6);
@@ -164,9 +318,21 @@ pub fn simulate(
     let mut centroids = Vec::new();
     let mut magnitudes = Vec::new();
     let mut catalog_index = Vec::new();
+    let photon = config.photon_sigma_at_limit > 0.0;
+    let mag_sigma = |m: f64| -> f64 {
+        if photon {
+            let lim = config.mag_limit.unwrap_or(m);
+            let p = config.photon_sigma_at_limit * 10f64.powf(0.2 * (m - lim));
+            p.hypot(config.mag_noise)
+        } else {
+            config.mag_noise
+        }
+    };
     for star in stars {
         let m = catalog.mag()[star as usize];
-        if config.mag_limit.is_some_and(|lim| m > lim) {
+        // With photon noise the detector decides on the noisy magnitude: allow 5σ past the limit.
+        let slack = if photon { 5.0 * mag_sigma(m).min(1.0) } else { 0.0 };
+        if config.mag_limit.is_some_and(|lim| m > lim + slack) {
             continue;
         }
         let Some((x, y)) = camera.cam_to_pixel(&(r * catalog.vectors()[star as usize])) else {
@@ -184,25 +350,60 @@ pub fn simulate(
         let (nx, ny, nm, drop): (f64, f64, f64, f64) = (
             noise.sample(&mut rng),
             noise.sample(&mut rng),
-            mag_noise.sample(&mut rng),
+            StandardNormal.sample(&mut rng),
             rng.random(),
         );
         let (x, y) = (x + nx, y + ny);
         if !(0.0..w).contains(&x) || !(0.0..h).contains(&y) || drop < config.drop_fraction {
             continue;
         }
+        let seen = m + nm * mag_sigma(m);
+        if photon && config.mag_limit.is_some_and(|lim| seen > lim) {
+            continue;
+        }
         centroids.push([x, y]);
-        magnitudes.push(m + nm);
+        magnitudes.push(seen);
         catalog_index.push(Some(star));
     }
     let (mag_lo, mag_hi) = match config.mag_limit {
         Some(lim) => (lim - 3.0, lim + 0.5),
         None => (4.0, 7.0),
     };
-    for _ in 0..config.false_stars {
+    // Catalogue magnitudes within the limit, for false stars that look like stars.
+    let pool: Vec<f64> = if config.false_star_mags == FalseStarMags::FromCatalog {
+        let lim = config.mag_limit.unwrap_or(f64::INFINITY);
+        catalog.mag().iter().copied().filter(|&m| m <= lim).collect()
+    } else {
+        Vec::new()
+    };
+    let n_false = match config.false_stars_max {
+        Some(hi) => rng.random_range(config.false_stars..=hi),
+        None => config.false_stars,
+    };
+    for _ in 0..n_false {
         centroids.push([rng.random_range(0.0..w), rng.random_range(0.0..h)]);
-        magnitudes.push(rng.random_range(mag_lo..mag_hi));
+        magnitudes.push(if pool.is_empty() {
+            rng.random_range(mag_lo..mag_hi)
+        } else {
+            pool[rng.random_range(0..pool.len())]
+        });
         catalog_index.push(None);
+    }
+    if config.uncatalogued_per_real > 0.0 {
+        let real = catalog_index.iter().filter(|c| c.is_some()).count();
+        let mean = config.uncatalogued_per_real * real as f64;
+        let count = if mean > 0.0 {
+            rand_distr::Poisson::new(mean).map_or(0.0, |p| p.sample(&mut rng)) as usize
+        } else {
+            0
+        };
+        let hi = config.mag_limit.unwrap_or(config.uncatalogued_mag_min + 1.0);
+        let lo = config.uncatalogued_mag_min.min(hi);
+        for _ in 0..count {
+            centroids.push([rng.random_range(0.0..w), rng.random_range(0.0..h)]);
+            magnitudes.push(if lo < hi { rng.random_range(lo..hi) } else { lo });
+            catalog_index.push(None);
+        }
     }
     let mut perm: Vec<usize> = (0..centroids.len()).collect();
     perm.shuffle(&mut rng);

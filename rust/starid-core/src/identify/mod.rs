@@ -49,6 +49,7 @@ use crate::kvector::PairIndex;
 
 mod pyramid;
 mod verify;
+mod voting;
 
 pub use verify::binomial_tail;
 
@@ -93,6 +94,16 @@ pub const MAG_OUTLIER_SIGMAS: f64 = 5.0;
 /// Fewest matches from which the instrument offset is estimated for [`MAG_BRIGHTER_LIMIT`].
 pub const MAG_CHECK_MIN_MATCHES: usize = 5;
 
+/// A catalogue whose pair index would hold more pairs than this is indexed over its brightest
+/// stars only (as many as keep the index to about this size); verification uses every star.
+pub const MAX_INDEX_PAIRS: usize = 6_000_000;
+
+/// Most centroids (brightest first) searched by the magnitude-gated pass and by voting.
+pub const HOSTILE_SEARCH_STARS: usize = 100;
+
+/// Most triangles of the magnitude-gated pass at one step of the ladder.
+pub const HOSTILE_TRIANGLES: usize = 60_000;
+
 /// Largest number of centroids accepted in one frame.
 pub const MAX_CENTROIDS: usize = 100_000;
 
@@ -120,6 +131,69 @@ pub struct IdentifyConfig {
     /// Give up after this much time (status [`Status::Timeout`]); `None`: no time limit, and the
     /// result depends only on the input.
     pub timeout: Option<Duration>,
+    /// Which method generates hypotheses (all pass the same verification).
+    pub method: Method,
+    /// Instrument minus catalogue magnitude, when known (`Some(0.0)`: magnitudes in the
+    /// catalogue's system). With it and magnitudes, a catalogue star more than `mag_tolerance`
+    /// from a centroid's magnitude is no candidate for it: the search that copes with many false
+    /// stars. `None`: the zero point is unknown and only the brightness order is used.
+    pub mag_offset: Option<f64>,
+    /// Largest difference between a centroid's magnitude (less `mag_offset`) and its catalogue
+    /// star's for the two to be matched in the magnitude-gated search.
+    pub mag_tolerance: f64,
+}
+
+/// How hypotheses are generated. Every method's hypotheses pass the same verification.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Method {
+    /// Pyramid over the brightest stars first; with calibrated magnitudes (`mag_offset`), a
+    /// magnitude-gated Pyramid over every centroid when false stars crowd the frame.
+    Auto,
+    /// Pyramid (Mortari et al. 2004) alone, brightest stars first.
+    Pyramid,
+    /// Geometric voting (Kolomenkin et al. 2008): observed pairs vote for catalogue stars;
+    /// the best-voted assignments become hypotheses.
+    Voting,
+}
+
+impl Method {
+    /// Every method.
+    pub const ALL: [Method; 3] = [Method::Auto, Method::Pyramid, Method::Voting];
+
+    /// Lower-case name: `auto`, `pyramid`, `voting`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Pyramid => "pyramid",
+            Self::Voting => "voting",
+        }
+    }
+
+    /// One line on what the method does.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Auto => "Pyramid, brightest first; magnitude-gated over every spot when false stars crowd the frame",
+            Self::Pyramid => "Pyramid (Mortari 2004) over the k-vector, brightest stars first",
+            Self::Voting => "geometric voting (Kolomenkin 2008): observed pairs vote for catalogue stars",
+        }
+    }
+
+    /// The method called `name`.
+    ///
+    /// # Errors
+    /// `InvalidInput` naming the known methods.
+    pub fn from_name(name: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(name))
+            .ok_or_else(|| {
+                Error::invalid_input(format!(
+                    "unknown method {name:?}: one of {}",
+                    Self::ALL.map(Method::name).join(", ")
+                ))
+            })
+    }
 }
 
 impl Default for IdentifyConfig {
@@ -133,6 +207,9 @@ impl Default for IdentifyConfig {
             max_pairs_visited: 20_000_000,
             allow_mirrored: true,
             timeout: None,
+            method: Method::Auto,
+            mag_offset: Some(0.0),
+            mag_tolerance: 0.5,
         }
     }
 }
@@ -162,6 +239,18 @@ impl IdentifyConfig {
                 self.min_matches
             )));
         }
+        if self.mag_offset.is_some_and(|o| !o.is_finite() || o.abs() > 100.0) {
+            return Err(Error::invalid_input(format!(
+                "mag_offset must be finite and within [-100, 100], got {:?}",
+                self.mag_offset
+            )));
+        }
+        if !(self.mag_tolerance.is_finite() && self.mag_tolerance > 0.0 && self.mag_tolerance <= 100.0) {
+            return Err(Error::invalid_input(format!(
+                "mag_tolerance must be in (0, 100] magnitudes, got {}",
+                self.mag_tolerance
+            )));
+        }
         if self.max_search_stars < 3 {
             return Err(Error::invalid_input(format!(
                 "max_search_stars must be at least 3, got {}",
@@ -184,16 +273,19 @@ pub enum Status {
     SearchLimit,
     /// The time limit passed without a verified solution.
     Timeout,
+    /// Fewer than [`MIN_CENTROIDS`] centroids: nothing to search (not an error).
+    TooFewStars,
 }
 
 impl Status {
-    /// Lower-case name: `identified`, `no_match`, `search_limit`, `timeout`.
+    /// Lower-case name: `identified`, `no_match`, `search_limit`, `timeout`, `too_few_stars`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Identified => "identified",
             Self::NoMatch => "no_match",
             Self::SearchLimit => "search_limit",
             Self::Timeout => "timeout",
+            Self::TooFewStars => "too_few_stars",
         }
     }
 }
@@ -224,6 +316,8 @@ pub struct Identification {
     pub hypotheses: usize,
     /// Time spent in [`Solver::identify`].
     pub elapsed: Duration,
+    /// The method whose hypothesis was verified (the configured one when unidentified).
+    pub method: Method,
 }
 
 impl Identification {
@@ -251,6 +345,7 @@ impl Identification {
             match_radius_rad: f64::NAN,
             hypotheses,
             elapsed,
+            method: Method::Auto,
         }
     }
 }
@@ -263,6 +358,10 @@ pub struct Solver {
     pairs: PairIndex,
     /// Pairs among the locally bright stars; `None` when they are most of the catalogue.
     bright_pairs: Option<PairIndex>,
+    /// Catalogue magnitudes as `f32`, for the magnitude gate of the search's inner loops.
+    mag32: Vec<f32>,
+    /// The same, ascending.
+    mag_sorted: Vec<f32>,
     build_time: Duration,
 }
 
@@ -274,9 +373,26 @@ impl Solver {
     /// As [`PairIndex::build`].
     pub fn new(catalog: Arc<Catalog>, max_angle_rad: f64) -> Result<Self> {
         let t = Instant::now();
-        let pairs = PairIndex::build(&catalog, max_angle_rad)?;
+        // A deep catalogue: index the brightest stars only (the guide stars); verification
+        // still matches every centroid against the whole catalogue.
+        let n_cat = catalog.len() as f64;
+        let expected = 0.25 * n_cat * n_cat * (1.0 - max_angle_rad.cos());
+        let guide: Option<Vec<bool>> = (expected > MAX_INDEX_PAIRS as f64).then(|| {
+            let keep = (MAX_INDEX_PAIRS as f64 / (0.25 * (1.0 - max_angle_rad.cos()))).sqrt() as usize;
+            let mut mags: Vec<f64> = catalog.mag().to_vec();
+            mags.sort_unstable_by(f64::total_cmp);
+            let limit = mags[keep.clamp(1, mags.len()) - 1];
+            catalog.mag().iter().map(|&m| m <= limit).collect()
+        });
+        let pairs = PairIndex::build_among(&catalog, max_angle_rad, guide.as_deref())?;
         // Half the width of a square field of this diagonal.
-        let members = catalog.locally_bright(max_angle_rad / (2.0 * SQRT_2), BRIGHT_MAX_BRIGHTER);
+        let mut members =
+            catalog.locally_bright(max_angle_rad / (2.0 * SQRT_2), BRIGHT_MAX_BRIGHTER);
+        if let Some(g) = &guide {
+            for (m, &k) in members.iter_mut().zip(g) {
+                *m &= k;
+            }
+        }
         let bright = members.iter().filter(|&&m| m).count();
         let bright_pairs = if 5 * bright < 4 * catalog.len() {
             Some(PairIndex::build_among(
@@ -287,10 +403,15 @@ impl Solver {
         } else {
             None
         };
+        let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
+        let mut mag_sorted = mag32.clone();
+        mag_sorted.sort_unstable_by(f32::total_cmp);
         Ok(Self {
             catalog,
             pairs,
             bright_pairs,
+            mag32,
+            mag_sorted,
             build_time: t.elapsed(),
         })
     }
@@ -328,6 +449,26 @@ impl Solver {
                 .map_or(0, PairIndex::memory_bytes)
     }
 
+    /// Mean over `windows` of the fraction of catalogue stars whose magnitude lies in each.
+    fn window_fraction(&self, windows: &[[f32; 2]]) -> f64 {
+        let sorted = &self.mag_sorted;
+        let n = sorted.len().max(1) as f64;
+        let total: f64 = windows
+            .iter()
+            .map(|w| {
+                let lo = sorted.partition_point(|&m| m < w[0]);
+                let hi = sorted.partition_point(|&m| m <= w[1]);
+                (hi - lo) as f64 / n
+            })
+            .sum();
+        (total / windows.len().max(1) as f64).clamp(1.0 / n, 1.0)
+    }
+
+    /// Catalogue magnitudes as `f32`.
+    pub(crate) fn mag_f32(&self) -> &[f32] {
+        &self.mag32
+    }
+
     /// Time it took to build the pair indexes.
     pub fn build_time(&self) -> Duration {
         self.build_time
@@ -357,6 +498,11 @@ impl Solver {
         config.validate()?;
         validate_centroids(centroids, magnitudes, camera)?;
         let n = centroids.len();
+        if n < MIN_CENTROIDS {
+            let mut id = Identification::unidentified(Status::TooFewStars, n, 0, start.elapsed());
+            id.method = config.method;
+            return Ok(id);
+        }
         let obs: Vec<Vector3<f64>> = centroids
             .iter()
             .map(|c| camera.pixel_to_cam(c[0], c[1], false))
@@ -371,31 +517,28 @@ impl Solver {
             Some(s) => std::slice::from_ref(s),
             None => &SIGMA_LADDER_PX,
         };
-        // Passes: (index, search stars, σ, triangle cap), in the order of the ladder, whose last
-        // (loosest) step comes last for both indexes: its wide tolerances find coincidences and
-        // verify with a wide radius, so it is the last resort. With magnitudes, each earlier
-        // step first tries the brightest few stars against the locally bright stars only: cheap,
-        // and it nearly always succeeds.
-        let bright = self.bright_pairs.as_ref().filter(|_| magnitudes.is_some());
-        let (last, early) = ladder.split_last().expect("the ladder has a step");
-        let mut passes: Vec<(&PairIndex, usize, f64, usize)> = Vec::with_capacity(6);
-        if let Some(b) = bright {
-            passes.extend(
-                early
-                    .iter()
-                    .map(|&s| (b, BRIGHT_SEARCH_STARS, s, usize::MAX)),
-            );
-        }
-        passes.extend(
-            early
-                .iter()
-                .map(|&s| (&self.pairs, config.max_search_stars, s, TRIANGLES_PER_STEP)),
-        );
-        if let Some(b) = bright {
-            passes.push((b, BRIGHT_SEARCH_STARS, *last, usize::MAX));
-        }
-        passes.push((&self.pairs, config.max_search_stars, *last, usize::MAX));
-        let stride = n.min(config.max_search_stars.max(BRIGHT_SEARCH_STARS));
+        let gated = magnitudes.is_some() && config.mag_offset.is_some();
+        let passes = self.passes(n, ladder, magnitudes.is_some(), gated, config);
+        // Catalogue-magnitude window of each centroid (known zero point).
+        let gate: Option<Vec<[f32; 2]>> = match (magnitudes, config.mag_offset) {
+            (Some(m), Some(off)) if gated => {
+                let tol = config.mag_tolerance;
+                Some(
+                    m.iter()
+                        .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32])
+                        .collect(),
+                )
+            }
+            _ => None,
+        };
+        let mut gate_ready = false;
+        let stride = passes
+            .iter()
+            .filter(|p| !p.gated)
+            .map(|p| p.stars)
+            .max()
+            .unwrap_or(3)
+            .min(n);
         let mut scratch = SCRATCH.with(|c| c.take());
         scratch.angles.clear();
         scratch.angles.resize(stride * stride, f64::NAN);
@@ -406,21 +549,50 @@ impl Solver {
             config,
             obs: [&obs, &obs_mirrored],
             magnitudes,
+            gate: None,
+            gate_fraction: 1.0,
             order: &order,
             hypotheses: 0,
             pairs_visited: 0,
             deadline: config.timeout.map(|t| start + t),
             scratch,
             stride,
+            method: config.method,
         };
         let mut status = Status::NoMatch;
-        for (pairs, stars, sigma_px, cap) in passes {
-            search.pairs = pairs;
-            match search.run(stars, sigma_px, cap) {
+        for pass in passes {
+            search.pairs = if pass.bright {
+                self.bright_pairs.as_ref().unwrap_or(&self.pairs)
+            } else {
+                &self.pairs
+            };
+            if pass.gated && !gate_ready {
+                gate_ready = true;
+                if let Some(g) = &gate {
+                    search.gate_fraction = self.window_fraction(g);
+                }
+                // Gated passes search more stars: a wider angle cache.
+                let wide = pass.stars.min(n);
+                if wide > search.stride {
+                    search.stride = wide;
+                    search.scratch.angles.clear();
+                    search.scratch.angles.resize(wide * wide, f64::NAN);
+                }
+            }
+            search.gate = if pass.gated { gate.as_deref() } else { None };
+            search.method = pass.method;
+            let found = match pass.method {
+                Method::Voting => search.vote(pass.stars, pass.sigma_px),
+                _ => search.run(pass.stars, pass.sigma_px, pass.cap),
+            };
+            match found {
                 Ok(Some(v)) => {
                     let hypotheses = search.hypotheses;
+                    let method = search.method;
                     SCRATCH.with(|c| c.replace(search.scratch));
-                    return Ok(v.into_identification(hypotheses, start.elapsed()));
+                    let mut id = v.into_identification(hypotheses, start.elapsed());
+                    id.method = method;
+                    return Ok(id);
                 }
                 Ok(None) => {}
                 Err(SearchLimit(why)) => {
@@ -431,13 +603,89 @@ impl Solver {
         }
         let hypotheses = search.hypotheses;
         SCRATCH.with(|c| c.replace(search.scratch));
-        Ok(Identification::unidentified(
-            status,
-            n,
-            hypotheses,
-            start.elapsed(),
-        ))
+        let mut id = Identification::unidentified(status, n, hypotheses, start.elapsed());
+        id.method = config.method;
+        Ok(id)
     }
+
+    /// The passes of one identification, in order.
+    ///
+    /// Pyramid passes run in the order of the noise ladder, whose last (loosest) step comes last
+    /// for both indexes: its wide tolerances find coincidences and verify with a wide radius, so
+    /// it is the last resort. With magnitudes, each earlier step first tries the brightest few
+    /// stars against the locally bright stars only: cheap, and it nearly always succeeds. With a
+    /// known zero point (`mag_offset`), a magnitude-gated pass over every centroid follows: it
+    /// finds the few real stars among many false ones.
+    fn passes(
+        &self,
+        n: usize,
+        ladder: &[f64],
+        has_mags: bool,
+        gated: bool,
+        config: &IdentifyConfig,
+    ) -> Vec<Pass> {
+        let (last, early) = ladder.split_last().expect("the ladder has a step");
+        let pass = |bright: bool, stars: usize, sigma_px: f64, cap: usize| Pass {
+            bright,
+            gated: false,
+            stars,
+            sigma_px,
+            cap,
+            method: Method::Pyramid,
+        };
+        let mut passes = Vec::with_capacity(8);
+        if config.method == Method::Voting {
+            for &s in ladder {
+                passes.push(Pass {
+                    gated,
+                    method: Method::Voting,
+                    ..pass(false, n.min(HOSTILE_SEARCH_STARS), s, usize::MAX)
+                });
+            }
+            return passes;
+        }
+        let bright = self.bright_pairs.is_some() && has_mags;
+        if bright {
+            passes.extend(early.iter().map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)));
+        }
+        if gated && config.method == Method::Auto && n > BRIGHT_SEARCH_STARS {
+            passes.extend(early.iter().map(|&s| Pass {
+                gated: true,
+                method: Method::Auto,
+                ..pass(false, n.min(HOSTILE_SEARCH_STARS), s, HOSTILE_TRIANGLES)
+            }));
+        }
+        passes.extend(
+            early
+                .iter()
+                .map(|&s| pass(false, config.max_search_stars, s, TRIANGLES_PER_STEP)),
+        );
+        if bright {
+            passes.push(pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX));
+        }
+        passes.push(pass(false, config.max_search_stars, *last, usize::MAX));
+        for p in &mut passes {
+            p.stars = p.stars.min(n);
+        }
+        passes
+    }
+}
+
+/// One pass of the search.
+#[derive(Debug, Clone, Copy)]
+struct Pass {
+    /// Search the pairs of locally bright stars only.
+    bright: bool,
+    /// Gate catalogue stars by magnitude.
+    gated: bool,
+    /// Brightest centroids that form triangles.
+    stars: usize,
+    /// Centroid noise of the step, pixels.
+    sigma_px: f64,
+    /// Most triangles tried.
+    cap: usize,
+    /// The method the pass runs (and reports).
+    method: Method,
 }
 
 /// One frame of a batch: its centroids and, optionally, their magnitudes.
@@ -564,6 +812,9 @@ struct Scratch {
     /// Angles between the search stars (row-major with `Search::stride`, NaN until first
     /// needed), kept across the passes: the observed directions do not change between them.
     angles: Vec<f64>,
+    /// Voting counters (centroid row × catalogue star) and the cells touched.
+    votes: Vec<u16>,
+    vote_touched: Vec<u32>,
 }
 
 struct Search<'a> {
@@ -575,6 +826,10 @@ struct Search<'a> {
     /// Observed directions: `[as seen, x reversed]`.
     obs: [&'a [Vector3<f64>]; 2],
     magnitudes: Option<&'a [f64]>,
+    /// Catalogue-magnitude window `[lo, hi]` of each centroid in a gated pass.
+    gate: Option<&'a [[f32; 2]]>,
+    /// Mean over the centroids of the fraction of catalogue stars in their magnitude window.
+    gate_fraction: f64,
     order: &'a [usize],
     hypotheses: usize,
     pairs_visited: usize,
@@ -582,6 +837,8 @@ struct Search<'a> {
     scratch: Scratch,
     /// Row length of `scratch.angles`: the most search stars of any pass.
     stride: usize,
+    /// The method of the current pass.
+    method: Method,
 }
 
 /// A verified solution.
@@ -616,6 +873,7 @@ impl Verified {
             match_radius_rad: self.radius_rad,
             hypotheses,
             elapsed,
+            method: Method::Auto,
         }
     }
 }

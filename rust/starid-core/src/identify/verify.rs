@@ -151,13 +151,22 @@ impl Search<'_> {
         sigma_rad: f64,
     ) -> usize {
         let catalog = &*self.solver.catalog;
+        let mags = self.solver.mag_f32();
+        let gate = self.gate;
         let radius = Radius::new(radius);
         let s = &mut self.scratch;
         s.matches.clear();
         s.claim.clear();
         for (o, v) in obs.iter().enumerate() {
             let w = r.inverse_transform_vector(v);
-            let m = unambiguous_nearest(catalog, &w, radius, sigma_rad);
+            let mut m = unambiguous_nearest(catalog, &w, radius, sigma_rad);
+            // In a gated pass a match must also agree in magnitude.
+            if let (Some(g), Some((star, _))) = (gate, m) {
+                let mag = mags[star as usize];
+                if mag < g[o][0] || mag > g[o][1] {
+                    m = None;
+                }
+            }
             if let Some((star, d)) = m {
                 s.claim.push((star, o as u32, d));
             }
@@ -238,7 +247,10 @@ impl Search<'_> {
         let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
         let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
         let density = in_field.max(1) as f64 / cone_sr;
-        let p = (density * PI * radius * radius).min(1.0);
+        // In a gated pass a chance match must also fall in the centroid's magnitude window: the
+        // mean chance over the centroids bounds the tail (Hoeffding 1956, for counts above the mean).
+        let frac = if self.gate.is_some() { self.gate_fraction } else { 1.0 };
+        let p = (density * PI * radius * radius * frac).min(1.0);
         binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p)
     }
 }

