@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import starid
 from starid.cli import main
@@ -49,7 +50,8 @@ def test_cli_errors(tmp_path: Path, capsys: object) -> None:
     assert main(["identify", str(tmp_path / "missing.csv"), "--fov-deg", "12", "--size", "512x512"]) == 2
     assert main(["identify", str(tmp_path / "bad.csv")]) == 2
     np.savetxt(tmp_path / "few.txt", [[1, 2], [3, 4]])
-    assert main(["identify", str(tmp_path / "few.txt"), "--fov-deg", "12", "--size", "512x512"]) == 2
+    # Two centroids are an observation (status too_few_stars), not bad input: exit 1, not identified.
+    assert main(["identify", str(tmp_path / "few.txt"), "--fov-deg", "12", "--size", "512x512"]) == 1
 
 
 def test_many_files_are_identified_in_batches(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
@@ -63,3 +65,16 @@ def test_many_files_are_identified_in_batches(tmp_path, capsys) -> None:  # type
     out = capsys.readouterr().out
     assert out.count("== ") == 25
     assert "25/25 frames identified" in out
+
+
+def test_methods_and_method_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from starid.cli import main
+
+    assert main(["methods"]) == 0
+    out = capsys.readouterr().out
+    assert "pyramid" in out and "voting" in out
+    f = tmp_path / "frame.csv"
+    assert main(["simulate", str(f), "--seed", "3", "--mag-limit", "6"]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(f), "--fov-deg", "12", "--size", "512x512", "--method", "voting", "--json"]) == 0
+    assert '"method": "voting"' in capsys.readouterr().out

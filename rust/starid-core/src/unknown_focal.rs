@@ -115,6 +115,20 @@ impl Solver {
             )));
         }
         let n = centroids.len();
+        if n < crate::identify::MIN_CENTROIDS {
+            return Ok(FocalIdentification {
+                identification: Identification::unidentified(
+                    Status::TooFewStars,
+                    n,
+                    0,
+                    start.elapsed(),
+                ),
+                camera: None,
+                fit: None,
+                focal_hypotheses: 0,
+                base_pairs: 0,
+            });
+        }
         let centre = Vector2::new(0.5 * width_px, 0.5 * height_px);
         let off: Vec<Vector2<f64>> = centroids
             .iter()

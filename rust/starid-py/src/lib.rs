@@ -45,7 +45,8 @@ pub struct PyIdentifyConfig {
 impl PyIdentifyConfig {
     #[new]
     #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
-                        max_search_stars=None, max_hypotheses=None, allow_mirrored=None, timeout_s=None))]
+                        max_search_stars=None, max_hypotheses=None, allow_mirrored=None, timeout_s=None,
+                        method=None, mag_offset=0.0, mag_tolerance=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -54,6 +55,9 @@ impl PyIdentifyConfig {
         max_hypotheses: Option<usize>,
         allow_mirrored: Option<bool>,
         timeout_s: Option<f64>,
+        method: Option<&str>,
+        mag_offset: Option<f64>,
+        mag_tolerance: Option<f64>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
@@ -73,6 +77,12 @@ impl PyIdentifyConfig {
             max_hypotheses: max_hypotheses.unwrap_or(d.max_hypotheses),
             allow_mirrored: allow_mirrored.unwrap_or(d.allow_mirrored),
             timeout,
+            method: match method {
+                None => d.method,
+                Some(m) => starid_core::Method::from_name(m).map_err(PyStaridError)?,
+            },
+            mag_offset,
+            mag_tolerance: mag_tolerance.unwrap_or(d.mag_tolerance),
             ..d
         };
         inner.validate().map_err(PyStaridError)?;
@@ -103,18 +113,33 @@ impl PyIdentifyConfig {
     fn allow_mirrored(&self) -> bool {
         self.inner.allow_mirrored
     }
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.inner.method.name()
+    }
+    #[getter]
+    fn mag_offset(&self) -> Option<f64> {
+        self.inner.mag_offset
+    }
+    #[getter]
+    fn mag_tolerance(&self) -> f64 {
+        self.inner.mag_tolerance
+    }
 
     fn __repr__(&self) -> String {
         let c = &self.inner;
         format!(
             "IdentifyConfig(centroid_sigma_px={}, max_false_match_prob={:e}, min_matches={}, max_search_stars={}, \
-             max_hypotheses={}, allow_mirrored={})",
+             max_hypotheses={}, allow_mirrored={}, method={:?}, mag_offset={}, mag_tolerance={})",
             c.centroid_sigma_px.map_or("None".to_string(), |s| s.to_string()),
             c.max_false_match_prob,
             c.min_matches,
             c.max_search_stars,
             c.max_hypotheses,
-            if c.allow_mirrored { "True" } else { "False" }
+            if c.allow_mirrored { "True" } else { "False" },
+            c.method.name(),
+            c.mag_offset.map_or("None".to_string(), |s| s.to_string()),
+            c.mag_tolerance
         )
     }
 }
@@ -266,10 +291,42 @@ fn simulate<'py>(
         drop_fraction,
         mirrored,
         radial_k1,
+        ..Default::default()
     };
     let cat = Arc::clone(&catalog.get().inner);
     let frame = run_core(py, move || sim::simulate(&cat, &cam, &config, seed))?;
     outcome::frame(py, &catalog.get().inner, &frame)
+}
+
+/// Simulate scene `seed` of a scene family (`K1`, `K2`, `K3`); returns the frame's dict plus
+/// the family's camera (`fov_deg`, `width_px`, `height_px`).
+#[pyfunction]
+#[pyo3(signature = (catalog, family, seed))]
+fn simulate_scene<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    family: &str,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let fam = sim::Family::from_name(family).map_err(PyStaridError)?;
+    let cat = Arc::clone(&catalog.get().inner);
+    let frame = run_core(py, move || fam.simulate(&cat, seed))?;
+    let d = outcome::frame(py, &catalog.get().inner, &frame)?;
+    let cam = fam.camera();
+    d.set_item("fov_deg", cam.fov_rad().to_degrees())?;
+    d.set_item("width_px", cam.width_px)?;
+    d.set_item("height_px", cam.height_px)?;
+    d.set_item("catalog_mag_limit", fam.catalog_mag_limit())?;
+    Ok(d)
+}
+
+/// The identification methods: `(name, one-line description)` pairs.
+#[pyfunction]
+fn methods() -> Vec<(&'static str, &'static str)> {
+    starid_core::Method::ALL
+        .iter()
+        .map(|m| (m.name(), m.description()))
+        .collect()
 }
 
 #[pymodule(gil_used = false)]
@@ -281,6 +338,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(identify_many, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_select, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_nearest_neighbours, m)?)?;

@@ -56,7 +56,11 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 /// ok : bool
 ///     Whether a verified solution was found. When False every id is -1.
 /// status : str
-///     ``"identified"``, ``"no_match"``, ``"search_limit"`` (a search budget ran out) or ``"timeout"``.
+///     ``"identified"``, ``"no_match"``, ``"search_limit"`` (a search budget ran out),
+///     ``"timeout"`` or ``"too_few_stars"`` (fewer than 4 centroids: nothing to search).
+/// method : str
+///     The method whose hypothesis verified (``"pyramid"``, ``"voting"``, ``"auto"`` for the
+///     magnitude-gated search of the default method); the configured one when not ``ok``.
 /// ra_deg, dec_deg, roll_deg : float
 ///     Boresight and roll (NaN unless ``ok``). At roll 0 image-up (-y) points to celestial
 ///     north and east is left; increasing roll turns the camera's +x axis toward +y.
@@ -94,6 +98,7 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 #[pyclass(frozen, name = "Identification", module = "starid")]
 pub struct PyIdentification {
     status: &'static str,
+    method: &'static str,
     ids: Vec<i64>,
     residuals_arcsec: Vec<f64>,
     rotation: Option<Rotation3<f64>>,
@@ -122,6 +127,7 @@ impl PyIdentification {
     ) -> Self {
         Self {
             status: id.status.as_str(),
+            method: id.method.name(),
             ids: ids_of(catalog, &id.catalog_index),
             residuals_arcsec: id
                 .residuals_rad
@@ -165,6 +171,7 @@ type State = (
     usize,
     [f64; 6],
     usize,
+    String,
 );
 
 /// NaN as None: JSON has no NaN.
@@ -195,6 +202,11 @@ impl PyIdentification {
     #[getter]
     fn status(&self) -> &'static str {
         self.status
+    }
+
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.method
     }
     #[getter]
     fn ra_deg(&self) -> f64 {
@@ -299,19 +311,24 @@ impl PyIdentification {
                 me.focal_sigma_px,
             ],
             me.hypotheses,
+            me.method.to_string(),
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
     }
 
     #[staticmethod]
     fn _from_state(state: State) -> PyResult<Self> {
-        let (status, ids, residuals_arcsec, rotation, mirrored, fmp, n_matched, floats, hypotheses) =
+        let (status, ids, residuals_arcsec, rotation, mirrored, fmp, n_matched, floats, hypotheses, method) =
             state;
+        let method = starid_core::Method::from_name(&method)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?
+            .name();
         let status = [
             Status::Identified,
             Status::NoMatch,
             Status::SearchLimit,
             Status::Timeout,
+            Status::TooFewStars,
         ]
         .into_iter()
         .map(|s| s.as_str())
@@ -336,6 +353,7 @@ impl PyIdentification {
             floats;
         Ok(Self {
             status,
+            method,
             ids,
             residuals_arcsec,
             rotation,
@@ -361,6 +379,7 @@ impl PyIdentification {
         d.set_item("ids", &self.ids)?;
         d.set_item("ok", self.ok())?;
         d.set_item("status", self.status)?;
+        d.set_item("method", self.method)?;
         d.set_item("ra_deg", json_float(py, ra)?)?;
         d.set_item("dec_deg", json_float(py, dec)?)?;
         d.set_item("roll_deg", json_float(py, roll)?)?;

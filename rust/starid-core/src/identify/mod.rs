@@ -101,6 +101,13 @@ pub const MAX_INDEX_PAIRS: usize = 6_000_000;
 /// Most centroids (brightest first) searched by the magnitude-gated pass and by voting.
 pub const HOSTILE_SEARCH_STARS: usize = 100;
 
+/// Catalogue pairs the magnitude-gated pass may visit at one step of the ladder before the
+/// search moves on (its work budget: hopeless frames end in bounded time).
+pub const HOSTILE_PAIRS_PER_STEP: usize = 8_000_000;
+
+/// Catalogue pairs each ungated pass may visit after the gated passes ran.
+pub const FALLBACK_PAIRS_PER_STEP: usize = 1_000_000;
+
 /// Most triangles of the magnitude-gated pass at one step of the ladder.
 pub const HOSTILE_TRIANGLES: usize = 60_000;
 
@@ -449,17 +456,14 @@ impl Solver {
                 .map_or(0, PairIndex::memory_bytes)
     }
 
-    /// Mean over `windows` of the fraction of catalogue stars whose magnitude lies in each.
+    /// Mean over `windows` of the fraction of catalogue stars no fainter than each window's
+    /// faint end: the stars a centroid may match in verification.
     fn window_fraction(&self, windows: &[[f32; 2]]) -> f64 {
         let sorted = &self.mag_sorted;
         let n = sorted.len().max(1) as f64;
         let total: f64 = windows
             .iter()
-            .map(|w| {
-                let lo = sorted.partition_point(|&m| m < w[0]);
-                let hi = sorted.partition_point(|&m| m <= w[1]);
-                (hi - lo) as f64 / n
-            })
+            .map(|w| sorted.partition_point(|&m| m <= w[1]) as f64 / n)
             .sum();
         (total / windows.len().max(1) as f64).clamp(1.0 / n, 1.0)
     }
@@ -532,6 +536,7 @@ impl Solver {
             _ => None,
         };
         let mut gate_ready = false;
+        let mut gated_ran = false;
         let stride = passes
             .iter()
             .filter(|p| !p.gated)
@@ -551,6 +556,7 @@ impl Solver {
             magnitudes,
             gate: None,
             gate_fraction: 1.0,
+            pass_pairs_limit: usize::MAX,
             order: &order,
             hypotheses: 0,
             pairs_visited: 0,
@@ -580,6 +586,18 @@ impl Solver {
                 }
             }
             search.gate = if pass.gated { gate.as_deref() } else { None };
+            // After gated passes (a crowded frame with calibrated magnitudes), the ungated
+            // passes that follow, the fallback for magnitudes that mislead, get a budget too.
+            search.pass_pairs_limit = if pass.gated {
+                // The first (tightest) step gets the budget; a looser one a quarter of it.
+                let budget = if gated_ran { HOSTILE_PAIRS_PER_STEP / 4 } else { HOSTILE_PAIRS_PER_STEP };
+                gated_ran = true;
+                search.pairs_visited.saturating_add(budget)
+            } else if gated_ran {
+                search.pairs_visited.saturating_add(FALLBACK_PAIRS_PER_STEP)
+            } else {
+                usize::MAX
+            };
             search.method = pass.method;
             let found = match pass.method {
                 Method::Voting => search.vote(pass.stars, pass.sigma_px),
@@ -730,11 +748,6 @@ pub(crate) fn validate_centroids(
     camera: &Camera,
 ) -> Result<()> {
     let n = centroids.len();
-    if n < MIN_CENTROIDS {
-        return Err(Error::invalid_input(format!(
-            "identification needs at least {MIN_CENTROIDS} centroids (a triangle and a confirming star), got {n}"
-        )));
-    }
     if n > MAX_CENTROIDS {
         return Err(Error::invalid_input(format!(
             "too many centroids: {n} (at most {MAX_CENTROIDS})"
@@ -748,9 +761,11 @@ pub(crate) fn validate_centroids(
                 c[0], c[1]
             )));
         }
-        if c[0] < -1.0 || c[0] > w + 1.0 || c[1] < -1.0 || c[1] > h + 1.0 {
+        // A star cut by the sensor's edge can centroid a little outside it: only a point more than
+        // a sensor width (height) away is an error.
+        if c[0] < -w || c[0] > 2.0 * w || c[1] < -h || c[1] > 2.0 * h {
             return Err(Error::invalid_input(format!(
-                "centroid {i} at ({}, {}) lies outside the {w} x {h} px sensor (x right, y down, origin top-left)",
+                "centroid {i} at ({}, {}) lies more than a sensor size outside the {w} x {h} px sensor (x right, y down, origin top-left)",
                 c[0], c[1]
             )));
         }
@@ -828,7 +843,10 @@ struct Search<'a> {
     magnitudes: Option<&'a [f64]>,
     /// Catalogue-magnitude window `[lo, hi]` of each centroid in a gated pass.
     gate: Option<&'a [[f32; 2]]>,
-    /// Mean over the centroids of the fraction of catalogue stars in their magnitude window.
+    /// `pairs_visited` at which the current pass ends (the search goes on with the next).
+    pass_pairs_limit: usize,
+    /// Mean over the centroids of the fraction of catalogue stars they may match (see
+    /// [`Solver::window_fraction`]).
     gate_fraction: f64,
     order: &'a [usize],
     hypotheses: usize,

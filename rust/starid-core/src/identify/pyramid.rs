@@ -83,6 +83,10 @@ impl Search<'_> {
                     if tried >= cap.min(stop_after) {
                         return Ok(self.accept(best));
                     }
+                    if self.pairs_visited >= self.pass_pairs_limit {
+                        // This pass's own budget is spent; the search goes on with the next.
+                        return Ok(self.accept(best));
+                    }
                     let why = if self.pairs_visited >= self.config.max_pairs_visited {
                         Some(Status::SearchLimit)
                     } else if self.deadline.is_some_and(|d| Instant::now() >= d) {

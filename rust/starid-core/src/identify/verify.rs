@@ -160,10 +160,10 @@ impl Search<'_> {
         for (o, v) in obs.iter().enumerate() {
             let w = r.inverse_transform_vector(v);
             let mut m = unambiguous_nearest(catalog, &w, radius, sigma_rad);
-            // In a gated pass a match must also agree in magnitude.
+            // In a gated pass a centroid may not be far brighter than its star (one-sided, as
+            // in `drop_too_bright`: a saturated or variable star fainter than expected keeps it).
             if let (Some(g), Some((star, _))) = (gate, m) {
-                let mag = mags[star as usize];
-                if mag < g[o][0] || mag > g[o][1] {
+                if mags[star as usize] > g[o][1] {
                     m = None;
                 }
             }

@@ -3,7 +3,7 @@ use std::sync::Arc;
 use proptest::prelude::*;
 use starid_core::geometry::attitude_from_radec_roll;
 use starid_core::simulate::{random_catalog, simulate, SimConfig};
-use starid_core::{Camera, ErrorKind, IdentifyConfig, SimFrame, Solver};
+use starid_core::{Camera, ErrorKind, Family, IdentifyConfig, Method, SimFrame, Solver, Status};
 
 use super::strategies::{bundled, config};
 
@@ -341,7 +341,6 @@ fn bad_input_is_an_error_not_a_panic() {
     let cfg = IdentifyConfig::default();
     let good = [[10.0, 10.0], [100.0, 20.0], [300.0, 400.0], [50.0, 500.0]];
     let cases: Vec<(Vec<[f64; 2]>, &str)> = vec![
-        (good[..3].to_vec(), "at least 4"),
         (
             vec![[f64::NAN, 1.0], good[1], good[2], good[3]],
             "non-finite",
@@ -351,13 +350,19 @@ fn bad_input_is_an_error_not_a_panic() {
             "non-finite",
         ),
         (vec![good[0], good[1], good[2], good[1]], "duplicates"),
-        (vec![good[0], good[1], good[2], [900.0, 5.0]], "outside"),
+        (vec![good[0], good[1], good[2], [1100.0, 5.0]], "outside"),
         (vec![[1.0, 1.0]; 100_001], "too many"),
     ];
     for (pts, msg) in cases {
         let e = s.identify(&pts, None, &camera, &cfg).unwrap_err();
         assert_eq!(e.kind(), &ErrorKind::InvalidInput);
         assert!(e.to_string().contains(msg), "{e} should mention {msg}");
+    }
+    // A frame of 0-3 spots is an observation: a status, not an error.
+    for k in 0..4 {
+        let r = s.identify(&good[..k], None, &camera, &cfg).unwrap();
+        assert_eq!(r.status, Status::TooFewStars);
+        assert_eq!(r.catalog_index.len(), k);
     }
     assert!(s.identify(&good, Some(&[1.0, 2.0]), &camera, &cfg).is_err());
     assert!(s
@@ -368,4 +373,89 @@ fn bad_input_is_an_error_not_a_panic() {
         ..Default::default()
     };
     assert!(s.identify(&good, None, &camera, &bad_cfg).is_err());
+}
+
+/// The K1 camera's solver over the bundled catalogue, built once.
+fn solver_k1() -> &'static Solver {
+    static S: std::sync::OnceLock<Solver> = std::sync::OnceLock::new();
+    S.get_or_init(|| Solver::for_camera(bundled(), &Family::K1.camera()).unwrap())
+}
+
+#[test]
+fn kelvins_scenes_are_identified_through_many_false_spots() {
+    // K1 scenes: a few real stars among up to 80 false spots with star-like magnitudes.
+    let camera = Family::K1.camera();
+    let (mut ok, mut tried) = (0, 0);
+    for seed in 0..12u64 {
+        let f = Family::K1.simulate(&bundled(), seed).unwrap();
+        if f.real_stars() < 6 {
+            continue;
+        }
+        tried += 1;
+        let r = solver_k1()
+            .identify(&f.centroids, Some(&f.magnitudes), &camera, &IdentifyConfig::default())
+            .unwrap();
+        // Never a wrong id, whatever the method found.
+        for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
+            assert!(got.is_none() || got == want, "seed {seed}: wrong id");
+        }
+        if r.is_identified() {
+            ok += 1;
+            assert_eq!(r.mirrored, f.mirrored);
+        }
+    }
+    // Most, not all: a scene of few stars among many false spots can fall short of the bound.
+    assert!(tried >= 6 && ok + 1 >= tried, "{ok} of {tried} identified");
+}
+
+#[test]
+fn every_method_identifies_clean_frames() {
+    let camera = camera_12();
+    for method in [Method::Pyramid, Method::Voting, Method::Auto] {
+        let cfg = IdentifyConfig { method, ..Default::default() };
+        for seed in 0..5u64 {
+            let sim = SimConfig { noise_px: 0.2, mag_noise: 0.05, mag_limit: Some(6.0), ..Default::default() };
+            let f = simulate(&bundled(), &camera, &sim, seed).unwrap();
+            let r = solver_12().identify(&f.centroids, Some(&f.magnitudes), &camera, &cfg).unwrap();
+            assert!(r.is_identified(), "{} seed {seed}", method.name());
+            assert_eq!(r.method, if method == Method::Auto { r.method } else { method });
+            for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
+                assert!(got.is_none() || got == want);
+            }
+        }
+    }
+    assert!(Method::from_name("nope").is_err());
+    assert_eq!(Method::from_name("Voting").unwrap(), Method::Voting);
+}
+
+#[test]
+fn spots_cut_by_the_edge_are_used() {
+    let camera = camera_12();
+    let f = simulate(&bundled(), &camera, &SimConfig { mag_limit: Some(6.0), ..Default::default() }, 3).unwrap();
+    let mut xy = f.centroids.clone();
+    xy.push([200.0, 513.7]);
+    xy.push([-0.5, 100.0]);
+    let r = solver_12().identify(&xy, None, &camera, &IdentifyConfig::default()).unwrap();
+    assert!(r.is_identified());
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// N real stars among M false spots (star-like magnitudes, calibrated or not): identified
+    /// or left unidentified, never wrong.
+    #[test]
+    fn real_among_false_is_never_wrong(seed in any::<u64>(), false_stars in 0usize..60, offset in prop_oneof![Just(0.0), -3.0f64..3.0]) {
+        let camera = Family::K1.camera();
+        let sim = SimConfig { false_stars, ..Family::K1.sim_config(seed) };
+        let mut f = simulate(&bundled(), &camera, &sim, seed).unwrap();
+        for m in &mut f.magnitudes {
+            *m += offset;
+        }
+        let cfg = IdentifyConfig { max_hypotheses: 5_000, max_pairs_visited: 2_000_000, ..Default::default() };
+        let r = solver_k1().identify(&f.centroids, Some(&f.magnitudes), &camera, &cfg).unwrap();
+        for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
+            prop_assert!(got.is_none() || got == want, "wrong id");
+        }
+    }
 }
