@@ -99,7 +99,7 @@ impl Search<'_> {
             .filter(|(_, b)| b.0 >= MIN_VOTES)
             .map(|(row, b)| (search[row], b.1, b.0))
             .collect();
-        cand.sort_by(|x, y| y.2.cmp(&x.2));
+        cand.sort_by_key(|c| std::cmp::Reverse(c.2));
         cand.truncate(VOTE_CANDIDATES);
         // Pairs of candidates whose catalogue separation agrees with the observed one.
         let cat = self.solver.catalog.vectors();
