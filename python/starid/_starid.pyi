@@ -23,9 +23,11 @@ __all__ = [
     "identify",
     "identify_many",
     "identify_unknown_fov",
+    "methods",
     "monte_carlo_distances",
     "predicted_distance_covariance",
     "simulate",
+    "simulate_scene",
 ]
 
 __version__: str
