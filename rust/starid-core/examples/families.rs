@@ -30,10 +30,14 @@ fn main() {
     let method = std::env::var("STARID_METHOD").map_or(Method::Auto, |m| {
         Method::from_name(&m).expect("STARID_METHOD")
     });
-    let config = IdentifyConfig {
+    let mut config = IdentifyConfig {
         method,
         ..Default::default()
     };
+    if let Ok(v) = std::env::var("STARID_MAX_PAIRS") {
+        config.max_pairs_visited = v.parse().expect("STARID_MAX_PAIRS");
+        config.max_hypotheses = usize::MAX;
+    }
     let bundled = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
     for family in families {
@@ -79,6 +83,19 @@ fn main() {
                 ge4 += 1;
                 // Fully identified: every real star named, none wrong.
                 let full = w == 0 && c == t;
+                if !full && r.is_identified() && std::env::var("STARID_PARTIAL").is_ok() {
+                    let rot = r.r_icrs_to_cam.expect("identified");
+                    for (o, (got, want)) in r.catalog_index.iter().zip(&f.catalog_index).enumerate() {
+                        if let (None, Some(star)) = (got, want) {
+                            let [x, y] = f.centroids[o];
+                            let _ = rot;
+                            println!(
+                                "  partial seed {seed}: star {star} mag {:.2} seen {:.2} at ({x:.0}, {y:.0}); {} of {} matched, sigma {:.2} px, radius {:.1} arcsec",
+                                catalog.mag()[*star as usize], f.magnitudes[o], r.matched, f.centroids.len(), r.centroid_sigma_px, r.match_radius_rad.to_degrees() * 3600.0
+                            );
+                        }
+                    }
+                }
                 ok_ge4 += usize::from(full);
                 if !r.is_identified() && std::env::var("STARID_FAILS").is_ok() {
                     println!(

@@ -103,7 +103,7 @@ pub const HOSTILE_SEARCH_STARS: usize = 100;
 
 /// Catalogue pairs the magnitude-gated pass may visit at one step of the ladder before the
 /// search moves on (its work budget: hopeless frames end in bounded time).
-pub const HOSTILE_PAIRS_PER_STEP: usize = 8_000_000;
+pub const HOSTILE_PAIRS_PER_STEP: usize = 80_000_000;
 
 /// Catalogue pairs each ungated pass may visit after the gated passes ran.
 pub const FALLBACK_PAIRS_PER_STEP: usize = 1_000_000;
@@ -827,6 +827,8 @@ struct Scratch {
     /// Angles between the search stars (row-major with `Search::stride`, NaN until first
     /// needed), kept across the passes: the observed directions do not change between them.
     angles: Vec<f64>,
+    /// Centroids torn between two stars in the last matching pass.
+    ambiguous: Vec<(u32, [(u32, f64); 2])>,
     /// Voting counters (centroid row × catalogue star) and the cells touched.
     votes: Vec<u16>,
     vote_touched: Vec<u32>,

@@ -157,20 +157,110 @@ impl Search<'_> {
         let s = &mut self.scratch;
         s.matches.clear();
         s.claim.clear();
+        s.ambiguous.clear();
         for (o, v) in obs.iter().enumerate() {
             let w = r.inverse_transform_vector(v);
-            let mut m = unambiguous_nearest(catalog, &w, radius, sigma_rad);
             // In a gated pass a centroid may not be far brighter than its star (one-sided, as
             // in `drop_too_bright`: a saturated or variable star fainter than expected keeps it).
-            if let (Some(g), Some((star, _))) = (gate, m) {
-                if mags[star as usize] > g[o][1] {
-                    m = None;
+            let allowed = |star: u32| gate.is_none_or(|g| mags[star as usize] <= g[o][1]);
+            let m = match nearest_match(catalog, &w, radius, sigma_rad, allowed) {
+                Nearest::Unique(star, d) => Some((star, d)),
+                Nearest::Ambiguous(a) => {
+                    s.ambiguous.push((o as u32, a));
+                    None
                 }
-            }
+                Nearest::None => None,
+            };
             if let Some((star, d)) = m {
                 s.claim.push((star, o as u32, d));
             }
             s.matches.push(m);
+        }
+        // A centroid torn between two stars of a resolved double, one of which another centroid
+        // claims: the joint assignment of the two centroids to the two stars that fits
+        // decisively better names both.
+        // Only with magnitudes, and only where each centroid's magnitude agrees with its star's
+        // both ways after the frame's offset (the median over the unique matches): a false spot
+        // beside a star with a faint companion must not be handed the companion.
+        let offset = match (self.magnitudes, s.ambiguous.is_empty()) {
+            (Some(m), false) => {
+                let mut d: Vec<f64> = s
+                    .matches
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(o, x)| x.map(|(star, _)| m[o] - f64::from(mags[star as usize])))
+                    .collect();
+                (d.len() >= 3).then(|| {
+                    d.sort_unstable_by(f64::total_cmp);
+                    d[d.len() / 2]
+                })
+            }
+            _ => None,
+        };
+        let tol = self.config.mag_tolerance;
+        if let (Some(off), Some(m)) = (offset, self.magnitudes) {
+            let fits = |o: u32, star: u32| (m[o as usize] - off - f64::from(mags[star as usize])).abs() <= tol;
+            let cat = catalog.vectors();
+            let decisive = 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad;
+            s.claim.sort_unstable_by_key(|c| c.0);
+            let mut resolved: Vec<(u32, u32, f64, u32, u32, f64)> = Vec::new();
+            for &(ob, cands) in &s.ambiguous {
+                let [(s1, _), (s2, _)] = cands;
+                let owner = |star: u32| {
+                    s.claim
+                        .binary_search_by_key(&star, |c| c.0)
+                        .ok()
+                        .map(|i| s.claim[i].1)
+                };
+                let pair = (s1.min(s2), s1.max(s2));
+                let oa = match (owner(s1), owner(s2)) {
+                    (Some(a), None) | (None, Some(a)) => a,
+                    // Both torn between the same two stars: the other one's index is larger,
+                    // so the pair is settled once.
+                    (None, None) => match s.ambiguous.iter().find(|(o, c)| {
+                        *o > ob && (c[0].0.min(c[1].0), c[0].0.max(c[1].0)) == pair
+                    }) {
+                        Some(&(o, _)) => o,
+                        None => continue,
+                    },
+                    _ => continue,
+                };
+                let wa = r.inverse_transform_vector(&obs[oa as usize]);
+                let wb = r.inverse_transform_vector(&obs[ob as usize]);
+                let d = |w: &Vector3<f64>, star: u32| w.cross(&cat[star as usize]).norm();
+                let straight = d(&wa, s1).powi(2) + d(&wb, s2).powi(2);
+                let crossed = d(&wa, s2).powi(2) + d(&wb, s1).powi(2);
+                if (straight - crossed).abs() < decisive {
+                    continue;
+                }
+                let (for_a, for_b) = if straight < crossed { (s1, s2) } else { (s2, s1) };
+                if !(fits(oa, for_a) && fits(ob, for_b)) {
+                    continue;
+                }
+                resolved.push((oa, for_a, d(&wa, for_a), ob, for_b, d(&wb, for_b)));
+            }
+            for (oa, sa, da, ob, sb, db) in resolved {
+                if s.matches[oa as usize].is_none() {
+                    // Both were torn: both are named now.
+                    s.matches[oa as usize] = Some((sa, da));
+                    s.matches[ob as usize] = Some((sb, db));
+                    s.claim.push((sa, oa, da));
+                    s.claim.push((sb, ob, db));
+                } else if s.matches[oa as usize].map(|m| m.0) == Some(sa) {
+                    s.matches[ob as usize] = Some((sb, db));
+                    s.claim.push((sb, ob, db));
+                } else if s.matches[oa as usize].is_some() {
+                    // The claimed star goes to the ambiguous centroid; the owner takes the other.
+                    s.matches[oa as usize] = Some((sa, da));
+                    s.matches[ob as usize] = Some((sb, db));
+                    for c in s.claim.iter_mut() {
+                        if c.1 == oa {
+                            *c = (sa, oa, da);
+                        }
+                    }
+                    s.claim.push((sb, ob, db));
+                }
+            }
         }
         // A catalogue star claimed by two centroids is ambiguous: neither gets it.
         s.claim.sort_unstable_by_key(|c| c.0);
@@ -259,9 +349,45 @@ impl Search<'_> {
 /// match to count (ln 1000): an unresolved double is left unmatched rather than guessed.
 const AMBIGUITY_LOG_ODDS: f64 = 6.907755278982137;
 
+/// What the nearest allowed catalogue stars to a centroid say.
+pub(super) enum Nearest {
+    /// No allowed star within the radius.
+    None,
+    /// One star, decisively nearest: `(star, distance)`.
+    Unique(u32, f64),
+    /// Two stars nearly as likely: `[(star, distance); 2]`.
+    Ambiguous([(u32, f64); 2]),
+}
+
+/// The nearest catalogue star to `w` within `radius` that `allowed` admits, and whether a second
+/// allowed star is nearly as likely (see [`AMBIGUITY_LOG_ODDS`]).
+fn nearest_match(
+    catalog: &Catalog,
+    w: &Vector3<f64>,
+    radius: Radius,
+    sigma_rad: f64,
+    allowed: impl Fn(u32) -> bool,
+) -> Nearest {
+    let cat = catalog.vectors();
+    let (best, second) = catalog.nearest_two(w, radius);
+    let (best, second) = match (best, second) {
+        (Some(b), s) if allowed(b.0) => (b, s.filter(|s| allowed(s.0))),
+        (_, Some(s)) if allowed(s.0) => (s, None),
+        _ => return Nearest::None,
+    };
+    let d1 = w.cross(&cat[best.0 as usize]).norm();
+    if let Some((s2, _)) = second {
+        let d2 = w.cross(&cat[s2 as usize]).norm();
+        if d2 * d2 - d1 * d1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
+            return Nearest::Ambiguous([(best.0, d1), (s2, d2)]);
+        }
+    }
+    Nearest::Unique(best.0, d1)
+}
+
 /// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as likely
 /// (see [`AMBIGUITY_LOG_ODDS`]): an ambiguous match is no match.
-fn unambiguous_nearest(
+pub(super) fn unambiguous_nearest(
     catalog: &Catalog,
     w: &Vector3<f64>,
     radius: Radius,
