@@ -34,6 +34,9 @@ fn main() {
         method,
         ..Default::default()
     };
+    if let Ok(v) = std::env::var("STARID_MAG_TOL") {
+        config.mag_tolerance = v.parse().expect("STARID_MAG_TOL");
+    }
     if let Ok(v) = std::env::var("STARID_MAX_PAIRS") {
         config.max_pairs_visited = v.parse().expect("STARID_MAX_PAIRS");
         config.max_hypotheses = usize::MAX;

@@ -135,6 +135,23 @@ impl PairIndex {
         Ok(Self::from_sorted(angles, pairs, max_angle_rad))
     }
 
+    /// An index over pairs already sorted by angle (`angles` ascending, one per pair) of a
+    /// catalogue of `n_stars` stars.
+    pub(crate) fn from_sorted_pairs(
+        angles: Vec<f32>,
+        pairs: &[[u32; 2]],
+        n_stars: usize,
+        max_angle_rad: f64,
+    ) -> Self {
+        let store = if n_stars <= NARROW_PAIR_STARS {
+            // Indices below 65 536: the cast is exact.
+            PairStore::Narrow(pairs.iter().map(|p| p.map(|i| i as u16)).collect())
+        } else {
+            PairStore::Wide(pairs.to_vec())
+        };
+        Self::from_sorted(angles, store, max_angle_rad)
+    }
+
     fn from_sorted(angles: Vec<f32>, pairs: PairStore, max_angle_rad: f64) -> Self {
         let n = angles.len();
         let bins = (n / PAIRS_PER_BIN).max(2);

@@ -47,9 +47,12 @@ use crate::error::{Error, Result};
 use crate::geometry::Camera;
 use crate::kvector::PairIndex;
 
+mod magbins;
 mod pyramid;
 mod verify;
 mod voting;
+
+pub use magbins::MagPairIndex;
 
 pub use verify::binomial_tail;
 
@@ -103,10 +106,17 @@ pub const HOSTILE_SEARCH_STARS: usize = 100;
 
 /// Catalogue pairs the magnitude-gated pass may visit at one step of the ladder before the
 /// search moves on (its work budget: hopeless frames end in bounded time).
-pub const HOSTILE_PAIRS_PER_STEP: usize = 80_000_000;
+pub const HOSTILE_PAIRS_PER_STEP: usize = 8_000_000;
 
 /// Catalogue pairs each ungated pass may visit after the gated passes ran.
-pub const FALLBACK_PAIRS_PER_STEP: usize = 1_000_000;
+pub const FALLBACK_PAIRS_PER_STEP: usize = 300_000;
+
+/// Beyond this many centroids, a frame whose gated passes found nothing is not searched again
+/// without the magnitude gate.
+pub const HOSTILE_FALLBACK_MAX_SPOTS: usize = 40;
+
+/// Most centroids (brightest first) of the gated passes at the looser steps of the ladder.
+pub const HOSTILE_LOOSE_STARS: usize = 30;
 
 /// Most triangles of the magnitude-gated pass at one step of the ladder.
 pub const HOSTILE_TRIANGLES: usize = 60_000;
@@ -369,6 +379,8 @@ pub struct Solver {
     mag32: Vec<f32>,
     /// The same, ascending.
     mag_sorted: Vec<f32>,
+    /// The pair index split by magnitude, built on the first magnitude-gated pass.
+    mag_pairs: std::sync::OnceLock<MagPairIndex>,
     build_time: Duration,
 }
 
@@ -419,6 +431,7 @@ impl Solver {
             bright_pairs,
             mag32,
             mag_sorted,
+            mag_pairs: std::sync::OnceLock::new(),
             build_time: t.elapsed(),
         })
     }
@@ -447,13 +460,14 @@ impl Solver {
         self.bright_pairs.as_ref()
     }
 
-    /// Heap memory of both pair indexes in bytes.
+    /// Heap memory of the pair indexes in bytes (the magnitude-split one once built).
     pub fn memory_bytes(&self) -> usize {
         self.pairs.memory_bytes()
             + self
                 .bright_pairs
                 .as_ref()
                 .map_or(0, PairIndex::memory_bytes)
+            + self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
     }
 
     /// Mean over `windows` of the fraction of catalogue stars no fainter than each window's
@@ -466,6 +480,13 @@ impl Solver {
             .map(|w| sorted.partition_point(|&m| m <= w[1]) as f64 / n)
             .sum();
         (total / windows.len().max(1) as f64).clamp(1.0 / n, 1.0)
+    }
+
+    /// The pair index split by magnitude bins, for magnitude-gated searches (built on first use,
+    /// once, whichever thread asks first).
+    pub fn mag_pair_index(&self) -> &MagPairIndex {
+        self.mag_pairs
+            .get_or_init(|| MagPairIndex::build(&self.pairs, &self.mag32))
     }
 
     /// Catalogue magnitudes as `f32`.
@@ -557,6 +578,7 @@ impl Solver {
             gate: None,
             gate_fraction: 1.0,
             pass_pairs_limit: usize::MAX,
+            tri_pos: [0; 3],
             order: &order,
             hypotheses: 0,
             pairs_visited: 0,
@@ -586,6 +608,10 @@ impl Solver {
                 }
             }
             search.gate = if pass.gated { gate.as_deref() } else { None };
+            if pass.gated {
+                let stride = search.stride;
+                search.scratch.side_cache.reset(stride);
+            }
             // After gated passes (a crowded frame with calibrated magnitudes), the ungated
             // passes that follow, the fallback for magnitudes that mislead, get a budget too.
             search.pass_pairs_limit = if pass.gated {
@@ -667,11 +693,24 @@ impl Solver {
             passes.extend(early.iter().map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)));
         }
         if gated && config.method == Method::Auto && n > BRIGHT_SEARCH_STARS {
-            passes.extend(early.iter().map(|&s| Pass {
+            // The tightest step over every spot; looser ones over the brightest
+            // HOSTILE_LOOSE_STARS only (their wider tolerances multiply the candidates).
+            passes.extend(early.iter().enumerate().map(|(k, &s)| Pass {
                 gated: true,
                 method: Method::Auto,
-                ..pass(false, n.min(HOSTILE_SEARCH_STARS), s, HOSTILE_TRIANGLES)
+                ..pass(
+                    false,
+                    n.min(if k == 0 { HOSTILE_SEARCH_STARS } else { HOSTILE_LOOSE_STARS }),
+                    s,
+                    HOSTILE_TRIANGLES,
+                )
             }));
+            // A crowded frame whose calibrated magnitudes found nothing: the ungated passes
+            // over its brightest spots, the fallback for magnitudes that mislead, would mostly
+            // try false stars; they are left out beyond this many spots.
+            if n > HOSTILE_FALLBACK_MAX_SPOTS {
+                return passes;
+            }
         }
         passes.extend(
             early
@@ -808,6 +847,23 @@ thread_local! {
     static SCRATCH: std::cell::Cell<Scratch> = std::cell::Cell::new(Scratch::default());
 }
 
+/// Per centroid pair (search positions `a < b`, at `a * stride + b`): `(first entry, count)`
+/// into `entries`, the magnitude-consistent catalogue pairs `[star of a, star of b]`;
+/// `u32::MAX` until read.
+#[derive(Default)]
+struct SideCache {
+    index: Vec<(u32, u32)>,
+    entries: Vec<[u32; 2]>,
+}
+
+impl SideCache {
+    fn reset(&mut self, stride: usize) {
+        self.index.clear();
+        self.index.resize(stride * stride, (u32::MAX, 0));
+        self.entries.clear();
+    }
+}
+
 /// The search must stop: the hypothesis budget or the time ran out.
 struct SearchLimit(Status);
 
@@ -827,6 +883,8 @@ struct Scratch {
     /// Angles between the search stars (row-major with `Search::stride`, NaN until first
     /// needed), kept across the passes: the observed directions do not change between them.
     angles: Vec<f64>,
+    /// Sub-index ranges of each centroid pair of a gated pass, read once per pass.
+    side_cache: SideCache,
     /// Centroids torn between two stars in the last matching pass.
     ambiguous: Vec<(u32, [(u32, f64); 2])>,
     /// Voting counters (centroid row × catalogue star) and the cells touched.
@@ -845,6 +903,8 @@ struct Search<'a> {
     magnitudes: Option<&'a [f64]>,
     /// Catalogue-magnitude window `[lo, hi]` of each centroid in a gated pass.
     gate: Option<&'a [[f32; 2]]>,
+    /// Search positions of the current triangle's three centroids.
+    tri_pos: [usize; 3],
     /// `pairs_visited` at which the current pass ends (the search goes on with the next).
     pass_pairs_limit: usize,
     /// Mean over the centroids of the fraction of catalogue stars they may match (see

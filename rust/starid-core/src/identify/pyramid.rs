@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use super::verify::binomial_tail;
 use super::{Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK};
+use super::magbins::MagPairIndex;
 use crate::attitude::{triad, wahba_from};
 
 impl Search<'_> {
@@ -100,6 +101,7 @@ impl Search<'_> {
                             .map_or(Err(SearchLimit(why)), |v| Ok(Some(v)));
                     }
                     tried += 1;
+                    self.tri_pos = [a, b, c];
                     let found = match self.try_triangle(
                         [i, j, k],
                         [t_ij, t_ik, t_jk],
@@ -144,8 +146,13 @@ impl Search<'_> {
         sigma_rad: f64,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut triangles = std::mem::take(&mut self.scratch.triangles);
-        let windows = self.gate.map(|g| [g[i], g[j], g[k]]);
-        self.catalogue_triangles(t_ij, t_ik, t_jk, eps, windows, &mut triangles);
+        match self.gate.map(|g| [g[i], g[j], g[k]]) {
+            Some(windows) => {
+                let mag_index = self.solver.mag_pair_index();
+                self.catalogue_triangles_gated(mag_index, [t_ij, t_ik, t_jk], eps, windows, &mut triangles);
+            }
+            None => self.catalogue_triangles(t_ij, t_ik, t_jk, eps, None, &mut triangles),
+        }
         let cat = self.solver.catalog.vectors();
         let mut result = Ok(None);
         for &[ca, cb, cc] in &triangles {
@@ -273,6 +280,123 @@ impl Search<'_> {
 
 }
 
+impl Search<'_> {
+    /// The magnitude-consistent catalogue pairs of the centroids at search positions `pa < pb`
+    /// (windows `wa`, `wb`, separation `t`): `[star of pa, star of pb]`, read from the
+    /// magnitude-split index once per pass and kept. Returns the entries' range in the cache.
+    fn side_candidates(
+        &mut self,
+        mag_index: &MagPairIndex,
+        (pa, pb): (usize, usize),
+        (wa, wb): ([f32; 2], [f32; 2]),
+        t: f64,
+        eps: f64,
+    ) -> std::ops::Range<usize> {
+        let key = pa * self.stride + pb;
+        let cache = &mut self.scratch.side_cache;
+        let (start, len) = cache.index[key];
+        if start != u32::MAX {
+            return start as usize..(start + len) as usize;
+        }
+        let mags = self.solver.mag_f32();
+        let fits = |s: u32, w: [f32; 2]| {
+            let m = mags[s as usize];
+            m >= w[0] && m <= w[1]
+        };
+        let start = cache.entries.len();
+        let mut scanned = 0usize;
+        mag_index.for_each_sub(mag_index.bins(wa), mag_index.bins(wb), |_, sub| {
+            let r = sub.range(t - eps, t + eps);
+            scanned += r.len();
+            for [p, q] in sub.pairs(r) {
+                if fits(p, wa) && fits(q, wb) {
+                    cache.entries.push([p, q]);
+                }
+                if fits(q, wa) && fits(p, wb) {
+                    cache.entries.push([q, p]);
+                }
+            }
+        });
+        self.pairs_visited += scanned;
+        let len = cache.entries.len() - start;
+        cache.index[key] = (start as u32, len as u32);
+        start..start + len
+    }
+
+    /// Catalogue triangles as [`Search::catalogue_triangles`], from the magnitude-consistent
+    /// candidates of each side (vertex `v`'s window `windows[v]`; see `side_candidates`).
+    pub(super) fn catalogue_triangles_gated(
+        &mut self,
+        mag_index: &MagPairIndex,
+        t: [f64; 3],
+        eps: f64,
+        windows: [[f32; 2]; 3],
+        out: &mut Vec<[u32; 3]>,
+    ) {
+        out.clear();
+        // Sides as (vertex pair) with vertices 0 = i, 1 = j, 2 = k.
+        let verts = [(0usize, 1usize), (0, 2), (1, 2)];
+        let pos = self.tri_pos;
+        let mut ranges: [std::ops::Range<usize>; 3] = Default::default();
+        // Whether a side's entries are stored [second vertex, first vertex].
+        let mut flipped = [false; 3];
+        for e in 0..3 {
+            let (a, b) = verts[e];
+            let (lo, hi) = if pos[a] < pos[b] { (a, b) } else { (b, a) };
+            flipped[e] = lo != a;
+            ranges[e] = self.side_candidates(mag_index, (pos[lo], pos[hi]), (windows[lo], windows[hi]), t[e], eps);
+            if ranges[e].is_empty() {
+                return;
+            }
+        }
+        let lens = ranges.clone().map(|r| r.len());
+        self.pairs_visited += lens.iter().sum::<usize>();
+        let n_cat = self.solver.catalog.len();
+        let cat = self.solver.catalog.vectors();
+        let closing = (0..3).max_by_key(|&e| lens[e]).expect("three sides");
+        let (mut walk, mut look) = match closing {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        if lens[walk] > lens[look] {
+            std::mem::swap(&mut walk, &mut look);
+        }
+        let (w0, w1) = verts[walk];
+        let (l0, l1) = verts[look];
+        let shared = if w0 == l0 || w0 == l1 { w0 } else { w1 };
+        let walk_other = if w0 == shared { w1 } else { w0 };
+        let look_other = if l0 == shared { l1 } else { l0 };
+        let t_close = t[closing];
+        let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
+        let entries = &self.scratch.side_cache.entries;
+        // Entry of a side as (star of its first vertex, star of its second vertex).
+        let oriented = |e: usize, p: [u32; 2]| if flipped[e] { (p[1], p[0]) } else { (p[0], p[1]) };
+        let adj = &mut self.scratch.adj_ik;
+        adj.reset(n_cat);
+        for &p in &entries[ranges[look].clone()] {
+            let (u, v) = oriented(look, p);
+            let (at_shared, at_other) = if l0 == shared { (u, v) } else { (v, u) };
+            adj.push(at_shared, at_other);
+        }
+        for &p in &entries[ranges[walk].clone()] {
+            let (u, v) = oriented(walk, p);
+            let (x, y) = if w0 == shared { (u, v) } else { (v, u) };
+            let vy = &cat[y as usize];
+            for z in adj.partners(x) {
+                let c = vy.dot(&cat[z as usize]);
+                if c <= cos_hi && c >= cos_lo && z != y {
+                    let mut tri = [0u32; 3];
+                    tri[shared] = x;
+                    tri[walk_other] = y;
+                    tri[look_other] = z;
+                    out.push(tri);
+                }
+            }
+        }
+    }
+}
+
 const NONE: u32 = u32::MAX;
 
 /// Adjacency lists of a set of catalogue pairs (both orientations) as linked lists indexed by
@@ -304,7 +428,7 @@ impl Adjacency {
         }
     }
 
-    fn reset(&mut self, n_cat: usize) {
+    pub(super) fn reset(&mut self, n_cat: usize) {
         for &s in &self.touched {
             self.head[s as usize] = NONE;
         }
