@@ -61,7 +61,13 @@ fn main() {
             (0.0, 0usize, 0usize, 0usize, 0usize, 0usize, 0usize);
         let mut times = Vec::new();
         for seed in 0..scenes {
-            let f = family.simulate(&catalog, seed).expect("scene");
+            let mut f = family.simulate(&catalog, seed).expect("scene");
+            if let Ok(v) = std::env::var("STARID_MAG_SHIFT") {
+                let shift: f64 = v.parse().expect("STARID_MAG_SHIFT");
+                for m in &mut f.magnitudes {
+                    *m += shift;
+                }
+            }
             let t = f.real_stars();
             let r = solver
                 .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)

@@ -108,7 +108,7 @@ pub const HOSTILE_SEARCH_STARS: usize = 100;
 /// search moves on (its work budget: hopeless frames end in bounded time).
 pub const HOSTILE_PAIRS_PER_STEP: usize = 8_000_000;
 
-/// Catalogue pairs each ungated pass may visit after the gated passes ran.
+/// Catalogue pairs each ungated pass may visit after the gated passes found nothing.
 pub const FALLBACK_PAIRS_PER_STEP: usize = 300_000;
 
 /// Beyond this many centroids, a frame whose gated passes found nothing is not searched again
@@ -379,6 +379,8 @@ pub struct Solver {
     mag32: Vec<f32>,
     /// The same, ascending.
     mag_sorted: Vec<f32>,
+    /// Catalogue stars per steradian in the sparsest field (cones of half the index's angle).
+    min_density_sr: f64,
     /// The pair index split by magnitude, built on the first magnitude-gated pass.
     mag_pairs: std::sync::OnceLock<MagPairIndex>,
     build_time: Duration,
@@ -425,10 +427,12 @@ impl Solver {
         let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
         let mut mag_sorted = mag32.clone();
         mag_sorted.sort_unstable_by(f32::total_cmp);
+        let min_density_sr = sparsest_density(&catalog, 0.5 * max_angle_rad);
         Ok(Self {
             catalog,
             pairs,
             bright_pairs,
+            min_density_sr,
             mag32,
             mag_sorted,
             mag_pairs: std::sync::OnceLock::new(),
@@ -489,6 +493,12 @@ impl Solver {
             .get_or_init(|| MagPairIndex::build(&self.pairs, &self.mag32))
     }
 
+    /// Catalogue stars per steradian in the sparsest field of the sky (cones of half the
+    /// index's angle, sampled at 2000 directions): what the search's early stop assumes.
+    pub fn min_density_sr(&self) -> f64 {
+        self.min_density_sr
+    }
+
     /// Catalogue magnitudes as `f32`.
     pub(crate) fn mag_f32(&self) -> &[f32] {
         &self.mag32
@@ -542,7 +552,24 @@ impl Solver {
             Some(s) => std::slice::from_ref(s),
             None => &SIGMA_LADDER_PX,
         };
-        let gated = magnitudes.is_some() && config.mag_offset.is_some();
+        // Magnitudes fit the catalogue's system when most centroids' windows hold catalogue
+        // stars; an arbitrary instrument zero point (or magnitudes that mislead) puts them
+        // outside, and the frame is searched without the gate.
+        let gated = match (magnitudes, config.mag_offset) {
+            (Some(m), Some(off)) => {
+                let tol = config.mag_tolerance;
+                let sorted = &self.mag_sorted;
+                let fitting = m
+                    .iter()
+                    .filter(|&&mi| {
+                        let (lo, hi) = ((mi - off - tol) as f32, (mi - off + tol) as f32);
+                        sorted.partition_point(|&x| x < lo) < sorted.partition_point(|&x| x <= hi)
+                    })
+                    .count();
+                2 * fitting > n
+            }
+            _ => false,
+        };
         let passes = self.passes(n, ladder, magnitudes.is_some(), gated, config);
         // Catalogue-magnitude window of each centroid (known zero point).
         let gate: Option<Vec<[f32; 2]>> = match (magnitudes, config.mag_offset) {
@@ -620,6 +647,9 @@ impl Solver {
                 gated_ran = true;
                 search.pairs_visited.saturating_add(budget)
             } else if gated_ran {
+                // After gated passes (calibrated magnitudes, nothing found), the ungated passes
+                // are a short fallback: a frame whose magnitudes mislead should say so
+                // (`mag_offset: None`) and is then searched without the gate, in full.
                 search.pairs_visited.saturating_add(FALLBACK_PAIRS_PER_STEP)
             } else {
                 usize::MAX
@@ -726,6 +756,25 @@ impl Solver {
         }
         passes
     }
+}
+
+/// Stars per steradian in the sparsest of 2000 cones of `radius_rad` spread evenly over the
+/// sky (a Fibonacci lattice), at least one star per cone.
+fn sparsest_density(catalog: &Catalog, radius_rad: f64) -> f64 {
+    const CONES: usize = 2000;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let least = (0..CONES)
+        .map(|k| {
+            let z = 1.0 - (2.0 * k as f64 + 1.0) / CONES as f64;
+            let rho = (1.0 - z * z).sqrt();
+            let phi = golden * k as f64;
+            let v = Vector3::new(rho * phi.cos(), rho * phi.sin(), z);
+            catalog.count_in_cone(&v, radius_rad)
+        })
+        .min()
+        .unwrap_or(0)
+        .max(1);
+    least as f64 / (2.0 * std::f64::consts::PI * (1.0 - radius_rad.cos()))
 }
 
 /// One pass of the search.

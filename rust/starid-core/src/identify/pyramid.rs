@@ -5,7 +5,10 @@ use std::f64::consts::{PI, SQRT_2};
 use std::time::Instant;
 
 use super::verify::binomial_tail;
-use super::{Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK};
+use super::{
+    Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, MATCH_RADIUS_SIGMAS,
+    STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
+};
 use super::magbins::MagPairIndex;
 use crate::attitude::{triad, wahba_from};
 
@@ -44,6 +47,15 @@ impl Search<'_> {
             .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
             .unwrap_or(others)
             .max(1);
+        // What the frame can still prove: even if every centroid matched, the bound of a solution
+        // at this step, with the sparsest field's density and the smallest match radius, must
+        // stay under the limit; past this many hypotheses it cannot, and the pass ends.
+        let n = self.order.len();
+        let frac = if self.gate.is_some() { self.gate_fraction } else { 1.0 };
+        let r_min = MATCH_RADIUS_SIGMAS * sigma_rad;
+        let p_min = (self.solver.min_density_sr() * PI * r_min * r_min * frac).min(1.0);
+        let best_tail = binomial_tail(n - 3, n - 3, p_min);
+        let provable_until = self.config.max_false_match_prob / best_tail.max(f64::MIN_POSITIVE);
         let max_angle = self.pairs.max_angle_rad() - eps;
         let stride = self.stride;
         let s = stars.min(stride);
@@ -82,6 +94,9 @@ impl Search<'_> {
                         continue;
                     }
                     if tried >= cap.min(stop_after) {
+                        return Ok(self.accept(best));
+                    }
+                    if self.hypotheses as f64 > provable_until {
                         return Ok(self.accept(best));
                     }
                     if self.pairs_visited >= self.pass_pairs_limit {
