@@ -243,8 +243,11 @@ def identify(
         many false ones), ``"pyramid"`` or ``"voting"`` (geometric voting). See :data:`METHODS`.
     mag_offset : float or None
         Instrument minus catalogue magnitude (default 0: magnitudes in the catalogue's system).
-        ``None`` when the zero point is unknown: only the brightness order is then used, and
-        frames where false stars outnumber real ones are rarely identified.
+        The magnitude-gated search runs only when most centroids' magnitudes, less this offset,
+        fall within ``mag_tolerance`` of some catalogue star's, so an arbitrary instrument zero
+        point is searched without the gate by itself. ``None`` says the zero point is unknown:
+        only the brightness order is used, and frames where false stars outnumber real ones
+        are rarely identified.
     mag_tolerance : float
         Largest difference (after ``mag_offset``) between a centroid's magnitude and its
         catalogue star's in the magnitude-gated search (default 0.5 mag).
