@@ -7,7 +7,9 @@
 //! catalogue ([`Catalog`]) → pair indexes ([`PairIndex`], Mortari's k-vector, over all stars and
 //! over the locally bright ones) → identification ([`Solver::identify`], Pyramid with a
 //! fourth-star confirmation and full verification; with magnitudes the brightest stars are tried
-//! against the locally bright pairs first) → attitude from all matched stars
+//! against the locally bright pairs first, then, with a known zero point, a magnitude-gated
+//! Pyramid over every centroid finds a few stars among many false ones; [`Method`] picks
+//! geometric voting instead) → attitude from all matched stars
 //! ([`attitude::wahba_from`], Gauss–Newton to Wahba's optimum; [`attitude::wahba_svd`] from
 //! scratch) → [`Identification`], with a bound on the probability that the solution is a false
 //! match and the time it took.
