@@ -60,6 +60,8 @@ fn main() {
         let (mut score, mut ok, mut ge4, mut ok_ge4, mut right, mut wrong, mut real) =
             (0.0, 0usize, 0usize, 0usize, 0usize, 0usize, 0usize);
         let mut times = Vec::new();
+        // Scenes and fully identified scenes by number of real stars (3, 4, 5, 6+).
+        let mut by_real = [[0usize; 2]; 4];
         for seed in 0..scenes {
             let mut f = family.simulate(&catalog, seed).expect("scene");
             if let Ok(v) = std::env::var("STARID_MAG_SHIFT") {
@@ -88,6 +90,11 @@ fn main() {
             real += t;
             score += ((c as f64 - 2.0 * w as f64) / t.max(1) as f64).max(-1.0);
             ok += usize::from(r.is_identified());
+            if t >= 3 {
+                let b = &mut by_real[(t - 3).min(3)];
+                b[0] += 1;
+                b[1] += usize::from(w == 0 && c == t);
+            }
             if t >= 4 {
                 ge4 += 1;
                 // Fully identified: every real star named, none wrong.
@@ -135,6 +142,10 @@ fn main() {
             q(1.0),
             solver.build_time().as_secs_f64() * 1e3,
             solver.memory_bytes() as f64 / 1e6,
+        );
+        println!(
+            "   fully identified by real stars: 3: {}/{}, 4: {}/{}, 5: {}/{}, 6+: {}/{}",
+            by_real[0][1], by_real[0][0], by_real[1][1], by_real[1][0], by_real[2][1], by_real[2][0], by_real[3][1], by_real[3][0]
         );
     }
 }

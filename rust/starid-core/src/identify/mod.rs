@@ -118,6 +118,11 @@ pub const HOSTILE_FALLBACK_MAX_SPOTS: usize = 40;
 /// Most centroids (brightest first) of the gated passes at the looser steps of the ladder.
 pub const HOSTILE_LOOSE_STARS: usize = 30;
 
+/// The first gated pass's magnitude window, as a fraction of `mag_tolerance`: real stars with
+/// good photometry pass it, and the fewer hypotheses it makes let a solution of few stars pass
+/// the false-match bound.
+pub const TIGHT_MAG_FRACTION: f64 = 0.25;
+
 /// Most triangles of the magnitude-gated pass at one step of the ladder.
 pub const HOSTILE_TRIANGLES: usize = 60_000;
 
@@ -571,20 +576,24 @@ impl Solver {
             _ => false,
         };
         let passes = self.passes(n, ladder, magnitudes.is_some(), gated, config);
-        // Catalogue-magnitude window of each centroid (known zero point).
-        let gate: Option<Vec<[f32; 2]>> = match (magnitudes, config.mag_offset) {
-            (Some(m), Some(off)) if gated => {
-                let tol = config.mag_tolerance;
-                Some(
+        // Catalogue-magnitude windows of each centroid (known zero point): the tight one first
+        // (fewer hypotheses compete, so a solution of few stars can pass the bound), then the
+        // configured one.
+        let windows = |tol: f64| -> Option<Vec<[f32; 2]>> {
+            match (magnitudes, config.mag_offset) {
+                (Some(m), Some(off)) if gated => Some(
                     m.iter()
                         .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32])
                         .collect(),
-                )
+                ),
+                _ => None,
             }
-            _ => None,
         };
-        let mut gate_ready = false;
+        let gate = windows(config.mag_tolerance);
+        let gate_tight = windows(TIGHT_MAG_FRACTION * config.mag_tolerance);
+        let fraction = |g: &Option<Vec<[f32; 2]>>| g.as_deref().map_or(1.0, |g| self.window_fraction(g));
         let mut gated_ran = false;
+        let mut fraction_normal = None;
         let stride = passes
             .iter()
             .filter(|p| !p.gated)
@@ -603,6 +612,7 @@ impl Solver {
             obs: [&obs, &obs_mirrored],
             magnitudes,
             gate: None,
+            gen_gate: None,
             gate_fraction: 1.0,
             pass_pairs_limit: usize::MAX,
             tri_pos: [0; 3],
@@ -621,11 +631,8 @@ impl Solver {
             } else {
                 &self.pairs
             };
-            if pass.gated && !gate_ready {
-                gate_ready = true;
-                if let Some(g) = &gate {
-                    search.gate_fraction = self.window_fraction(g);
-                }
+            if pass.gated {
+                search.gate_fraction = *fraction_normal.get_or_insert_with(|| fraction(&gate));
                 // Gated passes search more stars: a wider angle cache.
                 let wide = pass.stars.min(n);
                 if wide > search.stride {
@@ -635,6 +642,7 @@ impl Solver {
                 }
             }
             search.gate = if pass.gated { gate.as_deref() } else { None };
+            search.gen_gate = if pass.gated && pass.tight { gate_tight.as_deref() } else { None };
             if pass.gated {
                 let stride = search.stride;
                 search.scratch.side_cache.reset(stride);
@@ -642,10 +650,8 @@ impl Solver {
             // After gated passes (a crowded frame with calibrated magnitudes), the ungated
             // passes that follow, the fallback for magnitudes that mislead, get a budget too.
             search.pass_pairs_limit = if pass.gated {
-                // The first (tightest) step gets the budget; a looser one a quarter of it.
-                let budget = if gated_ran { HOSTILE_PAIRS_PER_STEP / 4 } else { HOSTILE_PAIRS_PER_STEP };
                 gated_ran = true;
-                search.pairs_visited.saturating_add(budget)
+                search.pairs_visited.saturating_add(pass.pairs_budget)
             } else if gated_ran {
                 // After gated passes (calibrated magnitudes, nothing found), the ungated passes
                 // are a short fallback: a frame whose magnitudes mislead should say so
@@ -702,6 +708,8 @@ impl Solver {
         let pass = |bright: bool, stars: usize, sigma_px: f64, cap: usize| Pass {
             bright,
             gated: false,
+            tight: false,
+            pairs_budget: usize::MAX,
             stars,
             sigma_px,
             cap,
@@ -725,8 +733,19 @@ impl Solver {
         if gated && config.method == Method::Auto && n > BRIGHT_SEARCH_STARS {
             // The tightest step over every spot; looser ones over the brightest
             // HOSTILE_LOOSE_STARS only (their wider tolerances multiply the candidates).
-            passes.extend(early.iter().enumerate().map(|(k, &s)| Pass {
+            // The gated steps: all but the loosest of the ladder (or the one given).
+            let gated_steps: &[f64] = if early.is_empty() { ladder } else { early };
+            // First the tight magnitude window at the tightest step, then the configured one.
+            passes.push(Pass {
                 gated: true,
+                tight: true,
+                pairs_budget: HOSTILE_PAIRS_PER_STEP / 2,
+                method: Method::Auto,
+                ..pass(false, n.min(HOSTILE_SEARCH_STARS), gated_steps[0], HOSTILE_TRIANGLES)
+            });
+            passes.extend(gated_steps.iter().enumerate().map(|(k, &s)| Pass {
+                gated: true,
+                pairs_budget: if k == 0 { HOSTILE_PAIRS_PER_STEP / 2 } else { HOSTILE_PAIRS_PER_STEP / 8 },
                 method: Method::Auto,
                 ..pass(
                     false,
@@ -784,6 +803,10 @@ struct Pass {
     bright: bool,
     /// Gate catalogue stars by magnitude.
     gated: bool,
+    /// With the tight window ([`TIGHT_MAG_FRACTION`] of `mag_tolerance`).
+    tight: bool,
+    /// Catalogue pairs the pass may visit (gated passes).
+    pairs_budget: usize,
     /// Brightest centroids that form triangles.
     stars: usize,
     /// Centroid noise of the step, pixels.
@@ -950,8 +973,11 @@ struct Search<'a> {
     /// Observed directions: `[as seen, x reversed]`.
     obs: [&'a [Vector3<f64>]; 2],
     magnitudes: Option<&'a [f64]>,
-    /// Catalogue-magnitude window `[lo, hi]` of each centroid in a gated pass.
+    /// Catalogue-magnitude window `[lo, hi]` of each centroid in a gated pass (verification,
+    /// and hypotheses unless `gen_gate` is set).
     gate: Option<&'a [[f32; 2]]>,
+    /// A tighter window for making hypotheses only.
+    gen_gate: Option<&'a [[f32; 2]]>,
     /// Search positions of the current triangle's three centroids.
     tri_pos: [usize; 3],
     /// `pairs_visited` at which the current pass ends (the search goes on with the next).

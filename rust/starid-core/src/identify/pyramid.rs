@@ -161,7 +161,7 @@ impl Search<'_> {
         sigma_rad: f64,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut triangles = std::mem::take(&mut self.scratch.triangles);
-        match self.gate.map(|g| [g[i], g[j], g[k]]) {
+        match self.gen_gate.or(self.gate).map(|g| [g[i], g[j], g[k]]) {
             Some(windows) => {
                 let mag_index = self.solver.mag_pair_index();
                 self.catalogue_triangles_gated(mag_index, [t_ij, t_ik, t_jk], eps, windows, &mut triangles);
