@@ -132,6 +132,7 @@ def _config(
     method: str = "auto",
     mag_offset: Optional[float] = 0.0,
     mag_tolerance: float = 0.5,
+    brightness_order: bool = True,
 ) -> Any:
     if not isinstance(method, str):
         raise ValueError(f"method must be a string (one of {', '.join(METHODS)}), got {method!r}")
@@ -146,6 +147,7 @@ def _config(
         method,
         None if mag_offset is None else float(mag_offset),
         float(mag_tolerance),
+        bool(brightness_order),
     )
 
 
@@ -161,12 +163,14 @@ def _native_config(
     method: str,
     mag_offset: Optional[float],
     mag_tolerance: float,
+    brightness_order: bool,
 ) -> Any:
     """The native settings object, cached: the same settings are reused call after call."""
     return _starid.IdentifyConfig(
         method=method,
         mag_offset=mag_offset,
         mag_tolerance=mag_tolerance,
+        brightness_order=brightness_order,
         centroid_sigma_px=centroid_sigma_px,
         max_false_match_prob=max_false_match_prob,
         min_matches=min_matches,
@@ -195,6 +199,7 @@ def identify(
     method: str = "auto",
     mag_offset: Optional[float] = 0.0,
     mag_tolerance: float = 0.5,
+    brightness_order: bool = True,
 ) -> Identification:
     """Identify the stars of one frame (lost in space: no prior attitude).
 
@@ -251,6 +256,11 @@ def identify(
     mag_tolerance : float
         Largest difference (after ``mag_offset``) between a centroid's magnitude and its
         catalogue star's in the magnitude-gated search (default 0.5 mag).
+    brightness_order : bool
+        Without ``magnitudes``, whether ``xy`` lists the spots brightest first, as star
+        extractors do (default True): the first few are then tried among the locally bright
+        catalogue stars first, which is fast. Pass False for centroids in no particular order
+        (such as :func:`simulate`'s, which are shuffled); either way the answer is verified.
 
     Returns
     -------
@@ -297,6 +307,7 @@ def identify(
         method,
         mag_offset,
         mag_tolerance,
+        brightness_order,
     )
     if fov_deg is None:
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
@@ -325,6 +336,7 @@ def identify_many(
     method: str = "auto",
     mag_offset: Optional[float] = 0.0,
     mag_tolerance: float = 0.5,
+    brightness_order: bool = True,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
 
@@ -363,6 +375,7 @@ def identify_many(
         method,
         mag_offset,
         mag_tolerance,
+        brightness_order,
     )
     return _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
 

@@ -84,6 +84,7 @@ class IdentifyConfig:
         method: Optional[str] = None,
         mag_offset: Optional[float] = 0.0,
         mag_tolerance: Optional[float] = None,
+        brightness_order: Optional[bool] = None,
     ) -> IdentifyConfig: ...
     @property
     def centroid_sigma_px(self) -> Optional[float]: ...
@@ -103,6 +104,8 @@ class IdentifyConfig:
     def mag_offset(self) -> Optional[float]: ...
     @property
     def mag_tolerance(self) -> float: ...
+    @property
+    def brightness_order(self) -> bool: ...
 
 @final
 class Identification:

@@ -8,7 +8,8 @@
 //! `REPEAT` identifies every frame that many times (for profilers); times are of the first pass.
 //! Environment: `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
 //! the hopeless ones); `STARID_HYP` prints hypothesis counts; `STARID_FAILS` lists failures and
-//! wrong ids; `STARID_SEED=N` runs one frame.
+//! wrong ids; `STARID_SEED=N` runs one frame; `STARID_ORDER_ONLY` gives the centroids brightest
+//! first without their magnitudes (what tetra3-style solvers take).
 #![allow(clippy::print_stdout)]
 
 use std::path::PathBuf;
@@ -90,8 +91,20 @@ fn main() {
         let camera =
             Camera::from_fov(sc.fov_deg.to_radians(), sc.size_px, sc.size_px).expect("camera");
         let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
+        let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
         let sims: Vec<_> = (0..frames)
-            .map(|seed| simulate(&catalog, &camera, &sc.sim, seed).expect("frame"))
+            .map(|seed| {
+                let mut f = simulate(&catalog, &camera, &sc.sim, seed).expect("frame");
+                if order_only {
+                    // Brightest first, as an extractor lists them; the magnitudes withheld.
+                    let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
+                    idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+                    f.centroids = idx.iter().map(|&i| f.centroids[i]).collect();
+                    f.catalog_index = idx.iter().map(|&i| f.catalog_index[i]).collect();
+                    f.magnitudes = idx.iter().map(|&i| f.magnitudes[i]).collect();
+                }
+                f
+            })
             .collect();
         let (mut ok, mut wrong, mut none, mut ge4, mut ok_ge4, mut wrong_ids, mut ids) =
             (0, 0, 0, 0, 0, 0, 0);
@@ -115,8 +128,9 @@ fn main() {
                     }
                     continue;
                 }
+                let mags = (!order_only).then_some(f.magnitudes.as_slice());
                 let r = solver
-                    .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)
+                    .identify(&f.centroids, mags, &camera, &config)
                     .expect("identify");
                 if pass > 0 {
                     continue;

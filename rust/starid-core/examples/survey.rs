@@ -39,6 +39,8 @@ fn main() {
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(1e-3),
+        // Simulated centroids come in random order: no brightness information in it.
+        brightness_order: false,
         ..Default::default()
     };
     let mut ok_probs: Vec<f64> = Vec::new();

@@ -46,7 +46,7 @@ impl PyIdentifyConfig {
     #[new]
     #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
                         max_search_stars=None, max_hypotheses=None, allow_mirrored=None, timeout_s=None,
-                        method=None, mag_offset=0.0, mag_tolerance=None))]
+                        method=None, mag_offset=0.0, mag_tolerance=None, brightness_order=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -58,6 +58,7 @@ impl PyIdentifyConfig {
         method: Option<&str>,
         mag_offset: Option<f64>,
         mag_tolerance: Option<f64>,
+        brightness_order: Option<bool>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
@@ -83,6 +84,7 @@ impl PyIdentifyConfig {
             },
             mag_offset,
             mag_tolerance: mag_tolerance.unwrap_or(d.mag_tolerance),
+            brightness_order: brightness_order.unwrap_or(d.brightness_order),
             ..d
         };
         inner.validate().map_err(PyStaridError)?;
@@ -124,6 +126,10 @@ impl PyIdentifyConfig {
     #[getter]
     fn mag_tolerance(&self) -> f64 {
         self.inner.mag_tolerance
+    }
+    #[getter]
+    fn brightness_order(&self) -> bool {
+        self.inner.brightness_order
     }
 
     fn __repr__(&self) -> String {

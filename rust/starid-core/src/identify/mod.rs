@@ -163,6 +163,10 @@ pub struct IdentifyConfig {
     /// Largest difference between a centroid's magnitude (less `mag_offset`) and its catalogue
     /// star's for the two to be matched in the magnitude-gated search.
     pub mag_tolerance: f64,
+    /// Without magnitudes, the centroids come brightest first (as star extractors list them):
+    /// the first few are then searched among the locally bright stars first, as with
+    /// magnitudes. Set `false` for centroids in no particular order.
+    pub brightness_order: bool,
 }
 
 /// How hypotheses are generated. Every method's hypotheses pass the same verification.
@@ -232,6 +236,7 @@ impl Default for IdentifyConfig {
             method: Method::Auto,
             mag_offset: Some(0.0),
             mag_tolerance: 0.5,
+            brightness_order: true,
         }
     }
 }
@@ -726,7 +731,10 @@ impl Solver {
             }
             return passes;
         }
-        let bright = self.bright_pairs.is_some() && has_mags;
+        // Without magnitudes, the input order is taken as brightness order (extractors list
+        // spots brightest first) unless the configuration says it is not: the cheap pass over the
+        // first few spots runs then too.
+        let bright = self.bright_pairs.is_some() && (has_mags || config.brightness_order);
         if bright {
             passes.extend(early.iter().map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)));
         }
