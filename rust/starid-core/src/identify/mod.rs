@@ -126,6 +126,9 @@ pub const TIGHT_MAG_FRACTION: f64 = 0.25;
 /// Most triangles of the magnitude-gated pass at one step of the ladder.
 pub const HOSTILE_TRIANGLES: usize = 60_000;
 
+/// Brightest centroids a hypothesis's confirming stars are looked for among.
+pub const CONFIRM_POOL: usize = 128;
+
 /// Largest number of centroids accepted in one frame.
 pub const MAX_CENTROIDS: usize = 100_000;
 
@@ -230,7 +233,7 @@ impl Default for IdentifyConfig {
             min_matches: 4,
             max_search_stars: 24,
             max_hypotheses: 50_000,
-            max_pairs_visited: 20_000_000,
+            max_pairs_visited: 5_000_000,
             allow_mirrored: true,
             timeout: None,
             method: Method::Auto,

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use super::verify::binomial_tail;
 use super::{
-    Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, MATCH_RADIUS_SIGMAS,
+    Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, CONFIRM_POOL, MATCH_RADIUS_SIGMAS,
     STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
 };
 use super::magbins::MagPairIndex;
@@ -42,7 +42,7 @@ impl Search<'_> {
         // within r_confirm of some star, at twice the mean sky density) is unlikely to supply them.
         let cat_len = self.solver.catalog.len() as f64;
         let p_chance = (2.0 * cat_len / (4.0 * PI) * PI * r_confirm * r_confirm).min(1.0);
-        let others = self.order.len() - 3;
+        let others = self.order.len().min(CONFIRM_POOL) - 3;
         let confirmations = (1..=others)
             .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
             .unwrap_or(others)
@@ -176,7 +176,9 @@ impl Search<'_> {
             if mirrored && !self.config.allow_mirrored {
                 continue;
             }
-            if self.hypotheses >= self.config.max_hypotheses {
+            if self.hypotheses >= self.config.max_hypotheses
+                || self.pairs_visited >= self.config.max_pairs_visited
+            {
                 result = Err(SearchLimit(Status::SearchLimit));
                 break;
             }

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::{Search, Verified, MAG_BRIGHTER_LIMIT, MAG_CHECK_MIN_MATCHES, MAG_OUTLIER_SIGMAS, MATCH_RADIUS_SIGMAS};
+use super::{Search, Verified, CONFIRM_POOL, MAG_BRIGHTER_LIMIT, MAG_CHECK_MIN_MATCHES, MAG_OUTLIER_SIGMAS, MATCH_RADIUS_SIGMAS};
 use crate::attitude::wahba_from;
 use crate::catalog::Catalog;
 use crate::sky::Radius;
@@ -15,7 +15,7 @@ impl Search<'_> {
     /// (the Pyramid's fourth star; more of them in crowded frames). Stops as soon as the answer
     /// is known either way.
     pub(super) fn confirmed(
-        &self,
+        &mut self,
         r: &Rotation3<f64>,
         obs: &[Vector3<f64>],
         used: [usize; 3],
@@ -25,13 +25,17 @@ impl Search<'_> {
     ) -> bool {
         let catalog = &*self.solver.catalog;
         let radius = Radius::new(radius);
-        let mut remaining = self.order.len() - 3;
+        // The brightest CONFIRM_POOL centroids only: a frame of thousands of spots costs no more
+        // per hypothesis than one of a hundred.
+        let pool = &self.order[..self.order.len().min(CONFIRM_POOL)];
+        let mut remaining = pool.iter().filter(|o| !used.contains(o)).count();
         let mut found = 0;
-        for &o in self.order.iter().filter(|o| !used.contains(o)) {
+        for &o in pool.iter().filter(|o| !used.contains(o)) {
             if found + remaining < needed {
                 return false;
             }
             remaining -= 1;
+            self.pairs_visited += LOOKUP_WORK;
             let w = r.inverse_transform_vector(&obs[o]);
             if let Some((star, _)) = unambiguous_nearest(catalog, &w, radius, sigma_rad) {
                 if !used_cat.contains(&star) {
@@ -154,6 +158,7 @@ impl Search<'_> {
         let mags = self.solver.mag_f32();
         let gate = self.gate;
         let radius = Radius::new(radius);
+        self.pairs_visited += LOOKUP_WORK * obs.len();
         let s = &mut self.scratch;
         s.matches.clear();
         s.claim.clear();
@@ -344,6 +349,10 @@ impl Search<'_> {
         binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p)
     }
 }
+
+/// Work of one nearest-star look-up, in catalogue pairs visited (about its cost in time): the
+/// search's work budget counts matching too, so frames of many spots end as soon.
+pub(super) const LOOKUP_WORK: usize = 4;
 
 /// Log-likelihood ratio the nearest catalogue star must win by over the second nearest for a
 /// match to count (ln 1000): an unresolved double is left unmatched rather than guessed.
