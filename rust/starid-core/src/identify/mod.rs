@@ -788,12 +788,15 @@ impl Solver {
     }
 }
 
+/// The early stop's density: this quantile (per mille) of the fields' star counts.
+const SPARSE_QUANTILE_PERMILLE: usize = 50;
+
 /// Stars per steradian in the sparsest of 2000 cones of `radius_rad` spread evenly over the
 /// sky (a Fibonacci lattice), at least one star per cone.
 fn sparsest_density(catalog: &Catalog, radius_rad: f64) -> f64 {
     const CONES: usize = 2000;
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let least = (0..CONES)
+    let mut counts: Vec<usize> = (0..CONES)
         .map(|k| {
             let z = 1.0 - (2.0 * k as f64 + 1.0) / CONES as f64;
             let rho = (1.0 - z * z).sqrt();
@@ -801,9 +804,9 @@ fn sparsest_density(catalog: &Catalog, radius_rad: f64) -> f64 {
             let v = Vector3::new(rho * phi.cos(), rho * phi.sin(), z);
             catalog.count_in_cone(&v, radius_rad)
         })
-        .min()
-        .unwrap_or(0)
-        .max(1);
+        .collect();
+    counts.sort_unstable();
+    let least = counts[CONES * SPARSE_QUANTILE_PERMILLE / 1000].max(1);
     least as f64 / (2.0 * std::f64::consts::PI * (1.0 - radius_rad.cos()))
 }
 
