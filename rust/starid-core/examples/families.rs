@@ -8,7 +8,9 @@
 //! `STARID_HIP2` (`benches/bench_families.py` finds it for you). Score per scene:
 //! `max((c − 2w) / max(t, 1), −1)` with `c` right ids, `w` wrong ids, `t` real (catalogued)
 //! stars in the scene; summed over scenes and scaled to 100. `STARID_METHOD` picks the method
-//! (default `auto`); `STARID_FAILS` lists failed scenes of at least 4 stars.
+//! (default `auto`); `STARID_FAILS` lists failed scenes of at least 4 stars; `STARID_ORDER_ONLY`
+//! gives the spots brightest first without magnitudes; `STARID_MAG_SHIFT` shifts the magnitudes
+//! (a zero point the solver is not told).
 #![allow(clippy::print_stdout)]
 
 use std::path::PathBuf;
@@ -71,8 +73,17 @@ fn main() {
                 }
             }
             let t = f.real_stars();
+            if std::env::var("STARID_ORDER_ONLY").is_ok() {
+                // Brightest first without magnitudes: what tetra3-style solvers take.
+                let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
+                idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+                f.centroids = idx.iter().map(|&i| f.centroids[i]).collect();
+                f.catalog_index = idx.iter().map(|&i| f.catalog_index[i]).collect();
+                f.magnitudes = idx.iter().map(|&i| f.magnitudes[i]).collect();
+            }
+            let mags = std::env::var("STARID_ORDER_ONLY").is_err().then_some(f.magnitudes.as_slice());
             let r = solver
-                .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)
+                .identify(&f.centroids, mags, &camera, &config)
                 .expect("identify");
             times.push(r.elapsed.as_secs_f64());
             let (mut c, mut w) = (0usize, 0usize);

@@ -62,6 +62,13 @@ pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
 /// Triangles tried at each step of the ladder but the last before moving to a looser step.
 pub const TRIANGLES_PER_STEP: usize = 60;
 
+/// Catalogue pairs each ungated pass of a crowded frame (more than twice `max_search_stars`
+/// spots) may visit.
+pub const CROWDED_PAIRS_PER_STEP: usize = 500_000;
+
+/// In crowded frames the tighter steps try at least 1/this of the search stars' triangles.
+pub const CROWDED_TRIANGLE_SHARE: usize = 4;
+
 /// Match radius in units of the ladder step's σ; the false-match bound is computed with it.
 pub const MATCH_RADIUS_SIGMAS: f64 = 5.0;
 
@@ -233,7 +240,7 @@ impl Default for IdentifyConfig {
             min_matches: 4,
             max_search_stars: 24,
             max_hypotheses: 50_000,
-            max_pairs_visited: 5_000_000,
+            max_pairs_visited: 1_500_000,
             allow_mirrored: true,
             timeout: None,
             method: Method::Auto,
@@ -624,6 +631,7 @@ impl Solver {
             gate_fraction: 1.0,
             pass_pairs_limit: usize::MAX,
             tri_pos: [0; 3],
+            gated_work: 0,
             order: &order,
             hypotheses: 0,
             pairs_visited: 0,
@@ -665,14 +673,22 @@ impl Solver {
                 // are a short fallback: a frame whose magnitudes mislead should say so
                 // (`mag_offset: None`) and is then searched without the gate, in full.
                 search.pairs_visited.saturating_add(FALLBACK_PAIRS_PER_STEP)
+            } else if n > config.max_search_stars {
+                // A crowded frame searched by its brightest spots alone: most are false, and a
+                // search that has not found an all-real triangle yet seldom will.
+                search.pairs_visited.saturating_add(CROWDED_PAIRS_PER_STEP)
             } else {
                 usize::MAX
             };
             search.method = pass.method;
+            let work_before = search.pairs_visited;
             let found = match pass.method {
                 Method::Voting => search.vote(pass.stars, pass.sigma_px),
                 _ => search.run(pass.stars, pass.sigma_px, pass.cap),
             };
+            if pass.gated {
+                search.gated_work += search.pairs_visited - work_before;
+            }
             match found {
                 Ok(Some(v)) => {
                     let hypotheses = search.hypotheses;
@@ -738,6 +754,10 @@ impl Solver {
         // spots brightest first) unless the configuration says it is not: the cheap pass over the
         // first few spots runs then too.
         let bright = self.bright_pairs.is_some() && (has_mags || config.brightness_order);
+        // Crowded frames need more triangles before an all-real one comes up: the tighter steps
+        // try a fixed share of the search stars' triangles there.
+        let s = n.min(config.max_search_stars);
+        let triangles_per_step = TRIANGLES_PER_STEP.max(s * (s - 1) * (s - 2) / 6 / CROWDED_TRIANGLE_SHARE);
         if bright {
             passes.extend(early.iter().map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)));
         }
@@ -775,7 +795,7 @@ impl Solver {
         passes.extend(
             early
                 .iter()
-                .map(|&s| pass(false, config.max_search_stars, s, TRIANGLES_PER_STEP)),
+                .map(|&s| pass(false, config.max_search_stars, s, triangles_per_step)),
         );
         if bright {
             passes.push(pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX));
@@ -992,6 +1012,9 @@ struct Search<'a> {
     gate: Option<&'a [[f32; 2]]>,
     /// A tighter window for making hypotheses only.
     gen_gate: Option<&'a [[f32; 2]]>,
+    /// Work spent in gated passes, which have budgets of their own: `max_pairs_visited` bounds
+    /// the rest.
+    gated_work: usize,
     /// Search positions of the current triangle's three centroids.
     tri_pos: [usize; 3],
     /// `pairs_visited` at which the current pass ends (the search goes on with the next).

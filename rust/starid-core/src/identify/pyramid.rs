@@ -103,7 +103,7 @@ impl Search<'_> {
                         // This pass's own budget is spent; the search goes on with the next.
                         return Ok(self.accept(best));
                     }
-                    let why = if self.pairs_visited >= self.config.max_pairs_visited {
+                    let why = if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
                         Some(Status::SearchLimit)
                     } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
                         Some(Status::Timeout)
@@ -177,9 +177,13 @@ impl Search<'_> {
                 continue;
             }
             if self.hypotheses >= self.config.max_hypotheses
-                || self.pairs_visited >= self.config.max_pairs_visited
+                || self.pairs_visited - self.gated_work >= self.config.max_pairs_visited
             {
                 result = Err(SearchLimit(Status::SearchLimit));
+                break;
+            }
+            if self.pairs_visited >= self.pass_pairs_limit {
+                // The pass's own budget: the next triangle ends it.
                 break;
             }
             if self.hypotheses % 64 == 0 && self.deadline.is_some_and(|d| Instant::now() >= d) {

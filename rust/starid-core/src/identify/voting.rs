@@ -78,7 +78,7 @@ impl Search<'_> {
                     }
                 }
             }
-            if self.pairs_visited >= self.config.max_pairs_visited {
+            if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
                 break;
             }
         }
