@@ -18,6 +18,7 @@ every core.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from typing import Any
 
@@ -39,28 +40,54 @@ SCENARIOS: list[tuple[str, float, tuple[int, int], dict[str, Any]]] = [
 ]
 
 
+def sort_by_brightness(f: starid.Frame) -> starid.Frame:
+    o = np.argsort(f.magnitudes)
+    return dataclasses.replace(f, xy=f.xy[o], magnitudes=f.magnitudes[o], true_ids=f.true_ids[o])
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--catalog", help="catalogue file (default: bundled)")
     p.add_argument("--frames", type=int, default=10_000)
-    p.add_argument("--no-magnitudes", action="store_true", help="identify from geometry alone")
+    p.add_argument("--no-magnitudes", action="store_true", help="identify from geometry alone, spots in random order")
+    p.add_argument(
+        "--input",
+        choices=("magnitudes", "order", "realistic"),
+        default="magnitudes",
+        help="magnitudes: as simulated (0.1 mag noise, catalogue zero point); order: spots brightest first, "
+        "no magnitudes; realistic: 0.3 mag more scatter and an arbitrary zero point (mag_offset=None)",
+    )
     args = p.parse_args()
     cat = starid.Catalog.default() if args.catalog is None else starid.Catalog.load(args.catalog)
-    print(repr(cat), "without magnitudes" if args.no_magnitudes else "with magnitudes")
+    what = "without magnitudes, random order" if args.no_magnitudes else f"input: {args.input}"
+    print(repr(cat), what)
+    rng = np.random.default_rng(11)
     for name, fov, size, sim in SCENARIOS:
         if args.catalog is not None:
             sim = {k: v for k, v in sim.items() if k != "mag_limit"}
         info = cat.index_info(fov, size)
         frames = [starid.simulate(cat, fov, size, seed=s, mag_noise=0.1, **sim) for s in range(args.frames)]
         usable = [f for f in frames if len(f.xy) >= 4]
-        mags = None if args.no_magnitudes else [f.magnitudes for f in usable]
+        if args.input == "order" and not args.no_magnitudes:
+            # Brightest first, as an extractor lists the spots; the magnitudes withheld.
+            usable = [sort_by_brightness(f) for f in usable]
+        mags: Any = None
+        if not args.no_magnitudes and args.input == "magnitudes":
+            mags = [f.magnitudes for f in usable]
+        elif not args.no_magnitudes and args.input == "realistic":
+            mags = [f.magnitudes + rng.normal(0.0, 0.3, len(f.magnitudes)) + rng.uniform(-8.0, 8.0) for f in usable]
+        kw: dict[str, Any] = {"brightness_order": not args.no_magnitudes}
+        if args.input == "realistic":
+            kw["mag_offset"] = None
         t0 = time.perf_counter()
-        results = starid.identify_many([f.xy for f in usable], catalog=cat, fov_deg=fov, image_size=size, magnitudes=mags)
+        results = starid.identify_many(
+            [f.xy for f in usable], catalog=cat, fov_deg=fov, image_size=size, magnitudes=mags, **kw
+        )
         batch = len(usable) / (time.perf_counter() - t0)
         wall = []
         for k, f in enumerate(usable):
             t = time.perf_counter()
-            starid.identify(f.xy, cat, fov, size, magnitudes=None if mags is None else mags[k])
+            starid.identify(f.xy, cat, fov, size, magnitudes=None if mags is None else mags[k], **kw)
             wall.append(time.perf_counter() - t)
         ok = sum(r.ok for r in results)
         ge4 = [(f, r) for f, r in zip(usable, results) if f.n_real >= 4]

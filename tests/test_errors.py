@@ -99,3 +99,40 @@ def _has_hipparcos() -> bool:
     except ImportError:
         return False
     return True
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [
+        ({"timeout_s": 1e20}, "timeout_s"),
+        ({"timeout_s": -1.0}, "timeout_s"),
+        ({"min_matches": -1}, "min_matches"),
+        ({"max_hypotheses": 2**70}, "max_hypotheses"),
+        ({"max_search_stars": 2.5}, "max_search_stars"),
+        ({"min_matches": "four"}, "min_matches"),
+        ({"mag_tolerance": float("nan")}, "mag_tolerance"),
+        ({"mag_offset": float("inf")}, "mag_offset"),
+    ],
+)
+def test_settings_out_of_range_name_the_setting(kw: dict[str, object], name: str) -> None:
+    # A ValueError naming the setting: never a PanicException or a bare OverflowError.
+    with pytest.raises(ValueError, match=name):
+        ident(GOOD, **kw)
+
+
+def test_errors_are_typed() -> None:
+    assert issubclass(starid.InvalidInputError, starid.StaridError)
+    assert issubclass(starid.CatalogError, starid.StaridError)
+    assert issubclass(starid.StaridError, ValueError)
+    with pytest.raises(starid.InvalidInputError, match="non-finite"):
+        ident(np.vstack([[np.nan, 1.0], GOOD[1:]]))
+
+
+def test_index_is_built_once_for_threads_that_ask_at_once() -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    cat = starid.Catalog.from_csv(starid.DEFAULT_CATALOG_PATH)  # a new catalogue: nothing cached
+    with ThreadPoolExecutor(8) as pool:
+        infos = list(pool.map(lambda _: cat.index_info(11.0, (512, 512)), range(8)))
+    # One build: every thread gets the same index (the same build time, to the nanosecond).
+    assert len({i["build_time_s"] for i in infos}) == 1

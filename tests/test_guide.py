@@ -255,3 +255,22 @@ def test_cli_guide_plot(tmp_path) -> None:  # type: ignore[no-untyped-def]
     dest = tmp_path / "sky.png"
     assert main(["guide", "plot", str(dest)]) == 0
     assert dest.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("kw", "match"),
+    [
+        ({"tol_deg": 0.0}, "tol_deg"),
+        ({"tol_deg": float("nan")}, "tol_deg"),
+        ({"lo_deg": 20.0, "hi_deg": 10.0}, "lo_deg"),
+        ({"trials": 10**9}, "trials"),
+    ],
+)
+def test_fov_for_coverage_refuses_what_would_not_end(kw: dict[str, object], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        starid.guide.fov_for_coverage(starid.Catalog.default(), **kw)  # type: ignore[arg-type]
+
+
+def test_metrics_trials_are_capped() -> None:
+    with pytest.raises(ValueError, match="trials"):
+        starid.guide.metrics(starid.Catalog.default(), fov_deg=12.0, trials=10**8)

@@ -14,7 +14,7 @@ the Rust core; see ARCHITECTURE.md.
 
 from . import guide, pointing
 from ._catalog import DEFAULT_CATALOG_PATH, Catalog
-from ._errors import CatalogError, StaridError
+from ._errors import CatalogError, InvalidInputError, StaridError
 from ._identify import (
     DEFAULT_FOV_RANGE_DEG,
     METHODS,
@@ -36,6 +36,7 @@ __all__ = [
     "CatalogError",
     "Frame",
     "Identification",
+    "InvalidInputError",
     "METHODS",
     "SCENE_FAMILIES",
     "StaridError",

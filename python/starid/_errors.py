@@ -1,5 +1,5 @@
 """starid's exceptions (defined in the native module)."""
 
-from ._starid import CatalogError, StaridError
+from ._starid import CatalogError, InvalidInputError, StaridError
 
-__all__ = ["CatalogError", "StaridError"]
+__all__ = ["CatalogError", "InvalidInputError", "StaridError"]

@@ -121,6 +121,17 @@ def _magnitudes(magnitudes: Any, n: int) -> Optional[npt.NDArray[np.float64]]:
     return m
 
 
+def _count(name: str, value: Any) -> int:
+    """A non-negative whole number that fits the core's counters, or a ValueError naming it."""
+    try:
+        v = int(value)
+    except (TypeError, ValueError, OverflowError) as e:
+        raise ValueError(f"{name} must be a whole number, got {value!r}") from e
+    if v != value or not 0 <= v <= 2**32:
+        raise ValueError(f"{name} must be a whole number in [0, 2**32], got {value!r}")
+    return v
+
+
 def _config(
     centroid_sigma_px: Optional[float],
     max_false_match_prob: float,
@@ -139,9 +150,9 @@ def _config(
     return _native_config(
         None if centroid_sigma_px is None else float(centroid_sigma_px),
         float(max_false_match_prob),
-        int(min_matches),
-        int(max_search_stars),
-        int(max_hypotheses),
+        _count("min_matches", min_matches),
+        _count("max_search_stars", max_search_stars),
+        _count("max_hypotheses", max_hypotheses),
         bool(allow_mirrored),
         None if timeout_s is None else float(timeout_s),
         method,

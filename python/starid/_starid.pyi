@@ -11,6 +11,7 @@ __all__ = [
     "CatalogError",
     "Identification",
     "IdentifyConfig",
+    "InvalidInputError",
     "StaridError",
     "__version__",
     "guide_field_counts",
@@ -32,8 +33,11 @@ __all__ = [
 
 __version__: str
 
-class StaridError(Exception):
-    """Base class of starid's own exceptions."""
+class StaridError(ValueError):
+    """Base class of starid's own exceptions (a ValueError: each says what input is wrong)."""
+
+class InvalidInputError(StaridError):
+    """An argument is out of its domain: NaN or far off-sensor centroids, absurd settings."""
 
 class CatalogError(StaridError):
     """A catalogue file or table is malformed."""

@@ -276,6 +276,14 @@ def fov_for_coverage(
         raise ValueError(f"p must be in (0, 1], got {p}")
     if k < 1:
         raise ValueError(f"k must be >= 1, got {k}")
+    trials = _count("trials", trials)
+    lo_deg, hi_deg, tol_deg = _finite("lo_deg", lo_deg), _finite("hi_deg", hi_deg), _finite("tol_deg", tol_deg)
+    if not 0.0 < lo_deg < hi_deg <= 180.0:
+        raise ValueError(f"need 0 < lo_deg < hi_deg <= 180, got lo_deg={lo_deg}, hi_deg={hi_deg}")
+    # The bisection halves the bracket each step: a tolerance below 1e-6 degrees (or zero) would
+    # never end in floating point.
+    if not tol_deg >= 1e-6:
+        raise ValueError(f"tol_deg must be at least 1e-6 degrees, got {tol_deg}")
 
     def coverage(fov: float) -> float:
         hist = stars_per_field(cat, fov, trials, field=field, seed=seed)
@@ -396,11 +404,17 @@ def _finite(name: str, value: Any) -> float:
     return v
 
 
+#: Most Monte Carlo fields one call draws (about 10 s of work on one core).
+MAX_TRIALS = 10_000_000
+
+
 def _count(name: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     if value < 1:
         raise ValueError(f"{name} must be >= 1, got {value}")
+    if name == "trials" and value > MAX_TRIALS:
+        raise ValueError(f"trials must be at most {MAX_TRIALS}, got {value}")
     return int(value)
 
 

@@ -327,7 +327,7 @@ def refine(
     --------
     >>> import starid, starid.pointing as sp
     >>> frame = starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=2, noise_px=0.2)
-    >>> res = starid.identify(frame.xy, fov_deg=12.3, image_size=(512, 512))
+    >>> res = starid.identify(frame.xy, fov_deg=12.1, image_size=(512, 512))
     >>> fit = sp.refine(res, frame.xy, image_size=(512, 512))
     >>> abs(fit.fov_deg - 12.0) < 0.02
     True

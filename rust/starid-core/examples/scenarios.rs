@@ -86,10 +86,16 @@ fn main() {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
     let catalog = Arc::new(Catalog::from_path(path).expect("bundled catalogue"));
-    let config = IdentifyConfig::default();
+    let mut config = IdentifyConfig::default();
+    if let Ok(v) = std::env::var("STARID_MAX_WORK") {
+        config.max_pairs_visited = v.parse().expect("STARID_MAX_WORK");
+    }
     for sc in scenarios().into_iter().filter(|s| s.name.contains(&filter)) {
         let camera =
             Camera::from_fov(sc.fov_deg.to_radians(), sc.size_px, sc.size_px).expect("camera");
+        // STARID_FOV_ERR: the solver is told a field of view this fraction off (frames use the true one).
+        let fov_err: f64 = std::env::var("STARID_FOV_ERR").map_or(0.0, |v| v.parse().expect("STARID_FOV_ERR"));
+        let told = Camera::from_fov(sc.fov_deg.to_radians() * (1.0 + fov_err), sc.size_px, sc.size_px).expect("camera");
         let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
         let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
         let sims: Vec<_> = (0..frames)
@@ -130,7 +136,7 @@ fn main() {
                 }
                 let mags = (!order_only).then_some(f.magnitudes.as_slice());
                 let r = solver
-                    .identify(&f.centroids, mags, &camera, &config)
+                    .identify(&f.centroids, mags, &told, &config)
                     .expect("identify");
                 if pass > 0 {
                     continue;

@@ -19,6 +19,8 @@ pub struct PyCatalog {
     pub inner: Arc<Catalog>,
     /// Pair indexes built so far, each for a largest angle.
     solvers: Mutex<Vec<Arc<Solver>>>,
+    /// Held while an index is built, so that it is built once.
+    building: Mutex<()>,
 }
 
 impl PyCatalog {
@@ -26,6 +28,7 @@ impl PyCatalog {
         Self {
             inner: Arc::new(inner),
             solvers: Mutex::new(Vec::new()),
+            building: Mutex::new(()),
         }
     }
 
@@ -45,13 +48,29 @@ impl PyCatalog {
         {
             return Ok(s.clone());
         }
-        let catalog = self.inner.clone();
-        // Build with a little margin so that nearby fields of view share one index.
-        let solver = Arc::new(run_core(py, move || {
-            Solver::new(catalog, max_angle_rad * 1.02)
-        })?);
-        let mut cache = self.solvers.lock().expect("solver cache poisoned");
-        cache.push(solver.clone());
+        // One build per index: threads that ask at once wait for the first (with the GIL
+        // released) and take its result from the cache.
+        let solver = py
+            .detach(|| -> starid_core::Result<Arc<Solver>> {
+                let _building = self.building.lock().expect("build lock poisoned");
+                if let Some(s) = self
+                    .solvers
+                    .lock()
+                    .expect("solver cache poisoned")
+                    .iter()
+                    .find(|s| fits(s))
+                {
+                    return Ok(s.clone());
+                }
+                // Build with a little margin so that nearby fields of view share one index.
+                let solver = Arc::new(Solver::new(self.inner.clone(), max_angle_rad * 1.02)?);
+                self.solvers
+                    .lock()
+                    .expect("solver cache poisoned")
+                    .push(solver.clone());
+                Ok(solver)
+            })
+            .map_err(PyStaridError)?;
         Ok(solver)
     }
 }

@@ -1,17 +1,21 @@
 //! Exceptions of the module and the conversion of core errors into them.
 
 use pyo3::create_exception;
-use pyo3::exceptions::{
-    PyException, PyFileNotFoundError, PyOSError, PyPermissionError, PyValueError,
-};
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyValueError};
 use pyo3::PyErr;
 use starid_core::ErrorKind;
 
 create_exception!(
     starid,
     StaridError,
-    PyException,
-    "Base class of starid's own exceptions."
+    PyValueError,
+    "Base class of starid's own exceptions (a ValueError: each says what input is wrong)."
+);
+create_exception!(
+    starid,
+    InvalidInputError,
+    StaridError,
+    "An argument is out of its domain: NaN or far off-sensor centroids, absurd settings."
 );
 create_exception!(
     starid,
@@ -33,7 +37,7 @@ impl From<PyStaridError> for PyErr {
     fn from(e: PyStaridError) -> Self {
         let msg = e.0.to_string();
         match e.0.kind() {
-            ErrorKind::InvalidInput => PyValueError::new_err(msg),
+            ErrorKind::InvalidInput => InvalidInputError::new_err(msg),
             ErrorKind::Catalog { .. } => CatalogError::new_err(msg),
             ErrorKind::Io(std::io::ErrorKind::NotFound) => PyFileNotFoundError::new_err(msg),
             ErrorKind::Io(std::io::ErrorKind::PermissionDenied) => PyPermissionError::new_err(msg),

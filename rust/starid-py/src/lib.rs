@@ -22,7 +22,7 @@ use pyo3::types::PyDict;
 use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
 
 use crate::catalog::PyCatalog;
-use crate::errors::{CatalogError, PyStaridError, StaridError};
+use crate::errors::{CatalogError, InvalidInputError, PyStaridError, StaridError};
 use crate::outcome::PyIdentification;
 
 /// Run core work with the GIL released and turn its error into the matching Python exception.
@@ -62,10 +62,12 @@ impl PyIdentifyConfig {
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
-            Some(t) if t.is_finite() && t > 0.0 => Some(std::time::Duration::from_secs_f64(t)),
+            Some(t) if t.is_finite() && t > 0.0 && t <= 1e9 => {
+                Some(std::time::Duration::from_secs_f64(t))
+            }
             Some(t) => {
                 return Err(PyValueError::new_err(format!(
-                    "timeout_s must be positive and finite, got {t}"
+                    "timeout_s must be positive, finite and at most 1e9 seconds, got {t}"
                 )))
             }
         };
@@ -361,5 +363,6 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pointing::identify_unknown_fov, m)?)?;
     m.add("StaridError", m.py().get_type::<StaridError>())?;
     m.add("CatalogError", m.py().get_type::<CatalogError>())?;
+    m.add("InvalidInputError", m.py().get_type::<InvalidInputError>())?;
     Ok(())
 }

@@ -240,7 +240,7 @@ impl Default for IdentifyConfig {
             min_matches: 4,
             max_search_stars: 24,
             max_hypotheses: 50_000,
-            max_pairs_visited: 1_500_000,
+            max_pairs_visited: 3_000_000,
             allow_mirrored: true,
             timeout: None,
             method: Method::Auto,
