@@ -8,8 +8,9 @@ use starid_core::simulate::SimConfig;
 use starid_core::{Camera, IdentifyConfig, Solver};
 
 /// The peer benchmark's scenarios (frames to magnitude 6, or 6.5, with 0.1 mag of magnitude
-/// noise, identified with their magnitudes), one with radial distortion, and one without
-/// magnitudes (geometry alone: the whole index from the start).
+/// noise, identified with their magnitudes), one with radial distortion, the first again with
+/// the spots brightest first and no magnitudes (the order alone, as tetra3-style solvers take
+/// them) and shuffled without magnitudes (geometry alone), and K1 Kelvins-style scenes.
 fn identify(c: &mut Criterion) {
     let cat = bundled_catalog();
     let cfg = IdentifyConfig::default();
@@ -67,12 +68,25 @@ fn identify(c: &mut Criterion) {
             },
             true,
         ),
-        ("12deg_512px_0.2px_no_magnitudes", 12.0, 512.0, base, false),
+        ("12deg_512px_0.2px_order_only", 12.0, 512.0, base.clone(), false),
+        ("12deg_512px_0.2px_shuffled_no_magnitudes", 12.0, 512.0, base, false),
     ];
+    let shuffled = IdentifyConfig {
+        brightness_order: false,
+        ..Default::default()
+    };
     for (name, fov, size, sim, with_magnitudes) in scenarios {
         let camera = Camera::from_fov(f64::to_radians(fov), size, size).unwrap();
         let solver = Solver::for_camera(cat.clone(), &camera).unwrap();
-        let fs = frames(&cat, &camera, &sim, 200);
+        let mut fs = frames(&cat, &camera, &sim, 200);
+        if name.ends_with("order_only") {
+            for f in &mut fs {
+                let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
+                idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+                f.centroids = idx.iter().map(|&i| f.centroids[i]).collect();
+            }
+        }
+        let cfg = if name.ends_with("shuffled_no_magnitudes") { &shuffled } else { &cfg };
         let refs: Vec<_> = fs
             .iter()
             .map(|f| {
@@ -88,7 +102,7 @@ fn identify(c: &mut Criterion) {
                 refs.iter()
                     .filter(|(xy, m)| {
                         solver
-                            .identify(black_box(xy), *m, &camera, &cfg)
+                            .identify(black_box(xy), *m, &camera, cfg)
                             .unwrap()
                             .is_identified()
                     })
@@ -99,13 +113,32 @@ fn identify(c: &mut Criterion) {
             g.bench_function(format!("{name}_batch"), |b| {
                 b.iter(|| {
                     solver
-                        .identify_batch(black_box(&refs), &camera, &cfg, None)
+                        .identify_batch(black_box(&refs), &camera, cfg, None)
                         .unwrap()
                         .len()
                 })
             });
         }
     }
+    // K1 scenes (Kelvins style: a few stars among up to 80 false spots, magnitudes given).
+    let family = starid_core::Family::K1;
+    let camera = family.camera();
+    let solver = Solver::for_camera(cat.clone(), &camera).unwrap();
+    solver.mag_pair_index();
+    let fs: Vec<_> = (0..200).map(|seed| family.simulate(&cat, seed).unwrap()).collect();
+    g.throughput(Throughput::Elements(fs.len() as u64));
+    g.bench_function("k1_kelvins", |b| {
+        b.iter(|| {
+            fs.iter()
+                .filter(|f| {
+                    solver
+                        .identify(black_box(&f.centroids), Some(&f.magnitudes), &camera, &cfg)
+                        .unwrap()
+                        .is_identified()
+                })
+                .count()
+        })
+    });
     g.finish();
 }
 

@@ -53,7 +53,23 @@ class Frame:
         return int(np.count_nonzero(self.true_ids >= 0))
 
 
+_SIZES: dict[Any, tuple[float, float]] = {}
+_CONFIGS: dict[tuple[Any, ...], Any] = {}
+
+
 def _image_size(image_size: Any) -> tuple[float, float]:
+    # The same few sizes come call after call: checked once (a hashable size only).
+    try:
+        return _SIZES[image_size]
+    except (KeyError, TypeError):
+        pass
+    w, h = _check_image_size(image_size)
+    if isinstance(image_size, tuple) and len(_SIZES) < 256:
+        _SIZES[image_size] = (w, h)
+    return w, h
+
+
+def _check_image_size(image_size: Any) -> tuple[float, float]:
     if image_size is None:
         raise ValueError("image_size=(width_px, height_px) is required")
     try:
@@ -132,7 +148,24 @@ def _count(name: str, value: Any) -> int:
     return v
 
 
-def _config(
+def _config(*args: Any) -> Any:
+    """The native settings for ``identify``'s keyword values, checked once per distinct set."""
+    # Equal values of other types (True and 1, 4 and 4.0) mean the same setting.
+    key = args
+    try:
+        return _CONFIGS[key]
+    except (KeyError, TypeError):
+        pass
+    cfg = _check_config(*args)
+    if len(_CONFIGS) < 256:
+        try:
+            _CONFIGS[key] = cfg
+        except TypeError:
+            pass
+    return cfg
+
+
+def _check_config(
     centroid_sigma_px: Optional[float],
     max_false_match_prob: float,
     min_matches: int,
