@@ -78,3 +78,24 @@ def test_methods_and_method_option(tmp_path: Path, capsys: pytest.CaptureFixture
     capsys.readouterr()
     assert main(["identify", str(f), "--fov-deg", "12", "--size", "512x512", "--method", "voting", "--json"]) == 0
     assert '"method": "voting"' in capsys.readouterr().out
+
+
+def test_a_bad_file_does_not_stop_the_others(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    good = tmp_path / "good.csv"
+    assert main(["simulate", str(good), "--seed", "3", "--mag-limit", "6"]) == 0
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y\n1,oops\n")
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(b"x,y\n\xff\xfe,1\n")
+    capsys.readouterr()
+    code = main(["identify", str(bad), str(good), str(binary), "--fov-deg", "12", "--size", "512x512"])
+    out, err = capsys.readouterr()
+    assert code == 2  # malformed input somewhere
+    assert f"== {good}" in out and "1/3 frames identified" in out
+    assert str(bad) in err and str(binary) in err and "UTF-8" in err
+    assert "Traceback" not in err
+    # A malformed catalogue: one line naming it, exit code 2.
+    cat = tmp_path / "cat.csv"
+    cat.write_text("id,ra_deg,dec_deg,mag\n1,10,oops,3\n")
+    assert main(["identify", str(good), "--fov-deg", "12", "--size", "512x512", "--catalog", str(cat)]) == 2
+    assert "cat.csv" in capsys.readouterr().err

@@ -97,3 +97,35 @@ def test_real_among_false_never_wrong(seed: int, false_stars: int, offset: float
         f.xy, fov_deg=10.0, image_size=(1920, 1440), magnitudes=f.magnitudes + offset, max_hypotheses=5000
     )
     _no_wrong(f, res)
+
+
+def test_one_bad_frame_does_not_stop_a_batch() -> None:
+    good = [starid.simulate(seed=s, noise_px=0.1).xy for s in range(3)]
+    nan = good[1].copy()
+    nan[0, 0] = np.nan
+    frames = [good[0], nan, np.zeros((4, 3)), good[2], np.array([[1e6, 1e6]] + [[10.0 * k, 5.0] for k in range(5)])]
+    res = starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), brightness_order=False)
+    assert [r.status for r in res] == ["identified", "invalid_input", "invalid_input", "identified", "invalid_input"]
+    assert res[1].message is not None and res[1].message.startswith("frame 1") and "non-finite" in res[1].message
+    assert res[2].message is not None and "shape" in res[2].message
+    assert res[4].message is not None and "outside" in res[4].message
+    assert res[0].message is None and (res[1].ids == -1).all()
+    assert res[1].to_dict()["status"] == "invalid_input"
+
+
+def test_ctrl_c_stops_a_long_batch_promptly() -> None:
+    import _thread
+    import threading
+    import time
+
+    rng = np.random.default_rng(3)
+    hopeless = rng.uniform(0, 512, (60, 2))  # random spots: each frame searches its whole budget
+    frames = [hopeless] * 20_000
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    t0 = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), brightness_order=False)
+    timer.cancel()
+    # Interrupted within a frame's time (each ends within its work budget), not minutes later.
+    assert time.perf_counter() - t0 < 3.0

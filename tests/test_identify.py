@@ -127,4 +127,4 @@ def test_results_are_immutable_and_pickle() -> None:
         assert repr(back) == repr(res)
     assert res.ok and not np.isnan(res.focal_sigma_px)
     with pytest.raises(ValueError, match="status"):
-        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 6, 0, "pyramid"))
+        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 6, 0, "pyramid", None))

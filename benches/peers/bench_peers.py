@@ -139,6 +139,11 @@ class Tetra3rs:
         return (r.ra_deg, r.dec_deg) if r else None
 
 
+#: cedar-solve's own time limit per frame (its ``solve_timeout``): without it a crowded K1 frame
+#: can take many seconds.
+CEDAR_TIMEOUT_MS = 1000
+
+
 class CedarSolve:
     name = "cedar-solve"
 
@@ -153,7 +158,9 @@ class CedarSolve:
 
     def solve(self, xy: np.ndarray, mags: np.ndarray, fov: float, size: tuple[int, int]) -> Optional[tuple[float, float]]:
         yx = np.column_stack([xy[:, 1], xy[:, 0]])  # tetra3 takes (y, x), brightest first
-        r = self.t3.solve_from_centroids(yx, (size[1], size[0]), fov_estimate=fov, fov_max_error=fov * 0.1)
+        r = self.t3.solve_from_centroids(
+            yx, (size[1], size[0]), fov_estimate=fov, fov_max_error=fov * 0.1, solve_timeout=CEDAR_TIMEOUT_MS
+        )
         return (r["RA"], r["Dec"]) if r.get("RA") is not None else None
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
+from ._errors import CatalogError
 
 __all__ = ["Catalog", "DEFAULT_CATALOG_PATH"]
 
@@ -107,7 +108,12 @@ class Catalog:
         >>> os.remove(f.name)
         """
         path = os.fspath(path)
-        return cls._wrap(_starid.Catalog.from_table_path(path), Path(path).name)
+        try:
+            native = _starid.Catalog.from_table_path(path)
+        except CatalogError as e:
+            # The file's name with the line: "cat.csv: line 2: dec_deg ... is not a number".
+            raise CatalogError(f"{path}: {e}") from None
+        return cls._wrap(native, Path(path).name)
 
     @classmethod
     def from_mat(cls, path: PathLike, variable: Optional[str] = None) -> "Catalog":

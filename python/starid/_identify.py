@@ -7,7 +7,7 @@ import math
 import os
 import secrets
 from dataclasses import dataclass, field
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Optional, Sequence, Sized, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -384,6 +384,10 @@ def identify_many(
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
 
+    A malformed frame (NaN, a wrong shape, a centroid far off the sensor) does not stop the
+    batch: its result has status ``"invalid_input"`` and the reason, naming the frame, in
+    ``message``. Ctrl-C stops the batch within a frame's time and raises KeyboardInterrupt.
+
     Arguments as :func:`identify`; ``frames`` is a sequence of (N_i, 2) centroid arrays and
     ``magnitudes`` an optional sequence of per-frame magnitude arrays (or None entries).
     ``threads`` limits the worker threads (None: all cores); ``timeout_s`` applies to each
@@ -400,12 +404,23 @@ def identify_many(
     cat = resolve_catalog(catalog)
     w, h = _image_size(image_size)
     fov = _fov(fov_deg)
-    xys = [_xy(f, f"frame {i}") for i, f in enumerate(frames)]
-    mags = None
-    if magnitudes is not None:
-        if len(magnitudes) != len(xys):
-            raise ValueError(f"magnitudes has {len(magnitudes)} entries for {len(xys)} frames")
-        mags = [_magnitudes(m, a.shape[0]) for m, a in zip(magnitudes, xys)]
+    # One malformed frame does not stop the batch: it gets status "invalid_input" and the
+    # reason in ``message``; the others are identified as usual.
+    if magnitudes is not None and len(magnitudes) != len(frames):
+        raise ValueError(f"magnitudes has {len(magnitudes)} entries for {len(frames)} frames")
+    xys: list[npt.NDArray[np.float64]] = []
+    mags_or_none: list[Optional[npt.NDArray[np.float64]]] = []
+    bad: dict[int, str] = {}
+    for i, f in enumerate(frames):
+        try:
+            a = _xy(f, f"frame {i}")
+            m = None if magnitudes is None else _magnitudes(magnitudes[i], a.shape[0])
+        except ValueError as e:
+            bad[i] = f"frame {i}: {e}"
+            a, m = np.empty((0, 2)), None
+        xys.append(a)
+        mags_or_none.append(m)
+    mags = None if magnitudes is None else mags_or_none
     if threads is not None and int(threads) < 1:
         raise ValueError(f"threads must be at least 1 (or None for all cores), got {threads}")
     cfg = _config(
@@ -421,7 +436,23 @@ def identify_many(
         mag_tolerance,
         brightness_order,
     )
-    return _starid.identify_many(cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads))
+    results: list[Identification] = _starid.identify_many(
+        cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads)
+    )
+    for i, msg in bad.items():
+        f = frames[i]
+        results[i] = _invalid(msg, len(f) if isinstance(f, Sized) else 0)
+    for i, r in enumerate(results):
+        if r.message is not None and not r.message.startswith("frame "):
+            results[i] = _invalid(f"frame {i}: {r.message}", len(r.ids))
+    return results
+
+
+def _invalid(message: str, n: int) -> Identification:
+    """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
+    nan = float("nan")
+    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message)
+    return Identification._from_state(state)
 
 
 def simulate(

@@ -169,7 +169,20 @@ def _identify(args: argparse.Namespace) -> int:
     failures = 0
     show_progress = len(files) > 20 and not args.json and sys.stderr.isatty()
     t0 = time.perf_counter()
-    star_lists = [read_star_list(path) for path in files]
+    # A file that cannot be read is reported (one line naming it) and the others go on.
+    star_lists: list[Any] = []
+    unreadable: dict[int, str] = {}
+    for k, path in enumerate(files):
+        try:
+            star_lists.append(read_star_list(path))
+        except UnicodeDecodeError as e:
+            unreadable[k] = f"{path}: not UTF-8 text ({e.reason} at byte {e.start})"
+            star_lists.append(None)
+        except (ValueError, OSError) as e:
+            msg = str(e)
+            unreadable[k] = msg if str(path) in msg else f"{path}: {msg}"
+            star_lists.append(None)
+    bad_input = 0
 
     def solve_one(k: int) -> Identification:
         stars = star_lists[k]
@@ -187,7 +200,7 @@ def _identify(args: argparse.Namespace) -> int:
         )
 
     solved: list[Identification] = []
-    if fov is not None and len(files) > 20:
+    if fov is not None and len(files) > 20 and not unreadable:
         # Many frames of one camera: identify them in batches on every core (Rust threads),
         # with a progress bar between batches.
         for lo in range(0, len(files), BATCH):
@@ -209,10 +222,23 @@ def _identify(args: argparse.Namespace) -> int:
                 _progress(len(solved), len(files), sum(r.ok for r in solved), time.perf_counter() - t0)
     for n, path in enumerate(files):
         stars = star_lists[n]
+        if n in unreadable:
+            bad_input += 1
+            print(f"starid: error: {unreadable[n]}", file=sys.stderr)
+            if args.json:
+                results.append({"file": str(path), "status": "invalid_input", "ok": False, "message": unreadable[n]})
+            continue
         if n < len(solved):
             res = solved[n]
         else:
-            res = solve_one(n)
+            try:
+                res = solve_one(n)
+            except ValueError as e:
+                bad_input += 1
+                print(f"starid: error: {path}: {e}", file=sys.stderr)
+                if args.json:
+                    results.append({"file": str(path), "status": "invalid_input", "ok": False, "message": str(e)})
+                continue
             if show_progress:
                 _progress(n + 1, len(files), n + 1 - failures - (not res.ok), time.perf_counter() - t0)
         failures += not res.ok
@@ -245,8 +271,9 @@ def _identify(args: argparse.Namespace) -> int:
         json.dump(results if len(results) != 1 else results[0], sys.stdout, indent=2)
         print()
     elif len(files) > 1:
-        print(f"{len(files) - failures}/{len(files)} frames identified in {time.perf_counter() - t0:.3f} s")
-    return 0 if failures == 0 else 1
+        print(f"{len(files) - failures - bad_input}/{len(files)} frames identified in {time.perf_counter() - t0:.3f} s")
+    # Exit codes: 0 every frame identified, 1 some frame not identified, 2 some input malformed.
+    return 2 if bad_input else (0 if failures == 0 else 1)
 
 
 def _simulate(args: argparse.Namespace) -> int:

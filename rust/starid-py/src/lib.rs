@@ -13,6 +13,7 @@ mod guide;
 mod outcome;
 mod pointing;
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
@@ -210,6 +211,10 @@ fn identify_many<'py>(
     let cam = camera(fov_deg, width_px, height_px)?;
     let mut frames = Vec::with_capacity(xys.len());
     for (i, xy) in xys.iter().enumerate() {
+        if i % 4096 == 4095 {
+            // A million frames take a while to convert: Ctrl-C works here too.
+            py.check_signals()?;
+        }
         frames.push(convert::centroids(&format!("frame {i}"), xy)?);
     }
     let mags: Vec<Option<Vec<f64>>> = match magnitudes {
@@ -237,13 +242,28 @@ fn identify_many<'py>(
     };
     let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
     let cfg = config.get().inner.clone();
-    let results = run_core(py, move || {
-        let refs: Vec<_> = frames
-            .iter()
-            .zip(&mags)
-            .map(|(f, m)| (f.as_slice(), m.as_deref()))
-            .collect();
-        solver.identify_batch(&refs, &cam, &cfg, threads)
+    let refs: Vec<_> = frames
+        .iter()
+        .zip(&mags)
+        .map(|(f, m)| (f.as_slice(), m.as_deref()))
+        .collect();
+    // The batch runs on a thread of its own while this one, every 20 ms, lets Python handle
+    // signals: Ctrl-C cancels the frames not yet begun and raises KeyboardInterrupt at once.
+    let cancel = AtomicBool::new(false);
+    let results = std::thread::scope(|scope| -> PyResult<Vec<starid_core::Identification>> {
+        let batch = scope.spawn(|| solver.identify_batch_until(&refs, &cam, &cfg, threads, &cancel));
+        while !batch.is_finished() {
+            if let Err(interrupt) = py.check_signals() {
+                cancel.store(true, Ordering::Relaxed);
+                let _ = py.detach(move || batch.join());
+                return Err(interrupt);
+            }
+            py.detach(|| std::thread::sleep(std::time::Duration::from_millis(20)));
+        }
+        batch
+            .join()
+            .map_err(|_| PyValueError::new_err("identification thread panicked"))?
+            .map_err(|e| PyStaridError(e).into())
     })?;
     let cat = &catalog.get().inner;
     Ok(results

@@ -57,7 +57,11 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 ///     Whether a verified solution was found. When False every id is -1.
 /// status : str
 ///     ``"identified"``, ``"no_match"``, ``"search_limit"`` (a search budget ran out),
-///     ``"timeout"`` or ``"too_few_stars"`` (fewer than 4 centroids: nothing to search).
+///     ``"timeout"``, ``"too_few_stars"`` (fewer than 4 centroids: nothing to search), and in
+///     ``identify_many`` ``"invalid_input"`` (a malformed frame; see ``message``) or
+///     ``"cancelled"``.
+/// message : str or None
+///     Why a frame of ``identify_many`` is ``"invalid_input"``; None otherwise.
 /// method : str
 ///     The method whose hypothesis verified (``"pyramid"``, ``"voting"``, ``"auto"`` for the
 ///     magnitude-gated search of the default method); the configured one when not ``ok``.
@@ -99,6 +103,7 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 pub struct PyIdentification {
     status: &'static str,
     method: &'static str,
+    message: Option<String>,
     ids: Vec<i64>,
     residuals_arcsec: Vec<f64>,
     rotation: Option<Rotation3<f64>>,
@@ -128,6 +133,7 @@ impl PyIdentification {
         Self {
             status: id.status.as_str(),
             method: id.method.name(),
+            message: id.message.clone(),
             ids: ids_of(catalog, &id.catalog_index),
             residuals_arcsec: id
                 .residuals_rad
@@ -172,6 +178,7 @@ type State = (
     [f64; 6],
     usize,
     String,
+    Option<String>,
 );
 
 /// NaN as None: JSON has no NaN.
@@ -207,6 +214,11 @@ impl PyIdentification {
     #[getter]
     fn method(&self) -> &'static str {
         self.method
+    }
+
+    #[getter]
+    fn message(&self) -> Option<&str> {
+        self.message.as_deref()
     }
     #[getter]
     fn ra_deg(&self) -> f64 {
@@ -312,13 +324,14 @@ impl PyIdentification {
             ],
             me.hypotheses,
             me.method.to_string(),
+            me.message.clone(),
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
     }
 
     #[staticmethod]
     fn _from_state(state: State) -> PyResult<Self> {
-        let (status, ids, residuals_arcsec, rotation, mirrored, fmp, n_matched, floats, hypotheses, method) =
+        let (status, ids, residuals_arcsec, rotation, mirrored, fmp, n_matched, floats, hypotheses, method, message) =
             state;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
@@ -329,6 +342,8 @@ impl PyIdentification {
             Status::SearchLimit,
             Status::Timeout,
             Status::TooFewStars,
+            Status::InvalidInput,
+            Status::Cancelled,
         ]
         .into_iter()
         .map(|s| s.as_str())
@@ -354,6 +369,7 @@ impl PyIdentification {
         Ok(Self {
             status,
             method,
+            message,
             ids,
             residuals_arcsec,
             rotation,
@@ -380,6 +396,7 @@ impl PyIdentification {
         d.set_item("ok", self.ok())?;
         d.set_item("status", self.status)?;
         d.set_item("method", self.method)?;
+        d.set_item("message", self.message.as_deref())?;
         d.set_item("ra_deg", json_float(py, ra)?)?;
         d.set_item("dec_deg", json_float(py, dec)?)?;
         d.set_item("roll_deg", json_float(py, roll)?)?;

@@ -37,6 +37,7 @@
 //! step try at most [`TRIANGLES_PER_STEP`] triangles.
 
 use std::f64::consts::SQRT_2;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -312,10 +313,16 @@ pub enum Status {
     Timeout,
     /// Fewer than [`MIN_CENTROIDS`] centroids: nothing to search (not an error).
     TooFewStars,
+    /// In a batch, a frame whose input is malformed (see [`Identification::message`]); alone,
+    /// [`Solver::identify`] returns the error instead.
+    InvalidInput,
+    /// In a batch, a frame left when the batch was cancelled.
+    Cancelled,
 }
 
 impl Status {
-    /// Lower-case name: `identified`, `no_match`, `search_limit`, `timeout`, `too_few_stars`.
+    /// Lower-case name: `identified`, `no_match`, `search_limit`, `timeout`, `too_few_stars`,
+    /// `invalid_input`, `cancelled`.
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Identified => "identified",
@@ -323,6 +330,8 @@ impl Status {
             Self::SearchLimit => "search_limit",
             Self::Timeout => "timeout",
             Self::TooFewStars => "too_few_stars",
+            Self::InvalidInput => "invalid_input",
+            Self::Cancelled => "cancelled",
         }
     }
 }
@@ -355,6 +364,8 @@ pub struct Identification {
     pub elapsed: Duration,
     /// The method whose hypothesis was verified (the configured one when unidentified).
     pub method: Method,
+    /// Why a batch frame has status [`Status::InvalidInput`]; `None` otherwise.
+    pub message: Option<String>,
 }
 
 impl Identification {
@@ -383,6 +394,7 @@ impl Identification {
             hypotheses,
             elapsed,
             method: Method::Auto,
+            message: None,
         }
     }
 }
@@ -857,10 +869,11 @@ pub type FrameRef<'a> = (&'a [[f64; 2]], Option<&'a [f64]>);
 impl Solver {
     /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
     /// `threads` is not 1 (`None`: all cores). Results come in input order and do not depend on
-    /// the thread count.
+    /// the thread count. A malformed frame does not stop the batch: its result has status
+    /// [`Status::InvalidInput`] and the reason in [`Identification::message`].
     ///
     /// # Errors
-    /// The first invalid frame's error, as for [`Solver::identify`].
+    /// `InvalidInput` when `config` is invalid or the thread pool cannot start.
     pub fn identify_batch(
         &self,
         frames: &[FrameRef<'_>],
@@ -868,22 +881,49 @@ impl Solver {
         config: &IdentifyConfig,
         threads: Option<usize>,
     ) -> Result<Vec<Identification>> {
-        let one = |f: &FrameRef<'_>| self.identify(f.0, f.1, camera, config);
+        self.identify_batch_until(frames, camera, config, threads, &AtomicBool::new(false))
+    }
+
+    /// As [`Solver::identify_batch`], checking `cancel` before each frame: once it is set, the
+    /// frames not begun get status [`Status::Cancelled`] (a frame ends within the search's work
+    /// budget, so a batch stops within about one frame's time per thread).
+    ///
+    /// # Errors
+    /// As [`Solver::identify_batch`].
+    pub fn identify_batch_until(
+        &self,
+        frames: &[FrameRef<'_>],
+        camera: &Camera,
+        config: &IdentifyConfig,
+        threads: Option<usize>,
+        cancel: &AtomicBool,
+    ) -> Result<Vec<Identification>> {
+        config.validate()?;
+        let one = |f: &FrameRef<'_>| -> Identification {
+            if cancel.load(Ordering::Relaxed) {
+                return Identification::unidentified(Status::Cancelled, f.0.len(), 0, Duration::ZERO);
+            }
+            self.identify(f.0, f.1, camera, config).unwrap_or_else(|e| {
+                let mut id = Identification::unidentified(Status::InvalidInput, f.0.len(), 0, Duration::ZERO);
+                id.message = Some(e.to_string());
+                id
+            })
+        };
         #[cfg(feature = "parallel")]
         if threads != Some(1) && frames.len() > 1 {
             use rayon::prelude::*;
-            let run = || frames.par_iter().map(one).collect::<Result<Vec<_>>>();
+            let run = || frames.par_iter().map(one).collect::<Vec<_>>();
             return match threads {
-                None => run(),
-                Some(t) => rayon::ThreadPoolBuilder::new()
+                None => Ok(run()),
+                Some(t) => Ok(rayon::ThreadPoolBuilder::new()
                     .num_threads(t)
                     .build()
                     .map_err(|e| Error::invalid_input(format!("cannot start {t} threads: {e}")))?
-                    .install(run),
+                    .install(run)),
             };
         }
         let _ = threads;
-        frames.iter().map(one).collect()
+        Ok(frames.iter().map(one).collect())
     }
 }
 
@@ -1066,6 +1106,7 @@ impl Verified {
             hypotheses,
             elapsed,
             method: Method::Auto,
+            message: None,
         }
     }
 }
