@@ -339,18 +339,27 @@ def plot(summary: dict[str, Any], path: str) -> None:
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.8))
     x = np.arange(len(scenarios))
     w = 0.8 / max(len(solvers), 1)
+    # S1..S5 for the peer scenarios in their order, the family name (K1, K2) for the others.
+    short, k = [], 0
+    for s in scenarios:
+        if s.startswith("K"):
+            short.append(s.split()[0])
+        else:
+            k += 1
+            short.append(f"S{k}")
     for k, v in enumerate(solvers):
         a1.bar(x + k * w, [rows[f"{s}|{v}"]["identified_pct"] for s in scenarios], w, label=v)
         a2.bar(x + k * w, [rows[f"{s}|{v}"]["median_ms"] for s in scenarios], w, label=v)
     for a, title in ((a1, "identified (%)"), (a2, "median time per frame (ms, log)")):
         a.set_xticks(x + 0.4 - w / 2)
-        a.set_xticklabels([s.replace(" ", "\n", 1) for s in scenarios], fontsize=7)
+        a.set_xticklabels(short, fontsize=8)
         a.set_title(title)
     a2.set_yscale("log")
     a1.set_ylim(0, 100)
     handles, labels = a1.get_legend_handles_labels()
     fig.legend(handles, labels, loc="upper center", ncol=len(solvers), fontsize=9, frameon=False)
-    fig.suptitle(f"{summary['frames']} frames per scenario", y=0.02, fontsize=8)
+    legend = "; ".join(f"{a}: {b}" for a, b in zip(short, scenarios) if a != b.split()[0])
+    fig.suptitle(f"{summary['frames']} frames per scenario. {legend}", y=0.02, fontsize=7)
     fig.tight_layout(rect=(0, 0.03, 1, 0.93))
     fig.savefig(path, dpi=110)
     print(f"wrote {path}")
