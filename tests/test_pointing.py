@@ -222,3 +222,11 @@ def test_huge_inputs_are_refused_or_handled() -> None:
     radec = np.column_stack([np.degrees(np.arctan2(rays[:, 1], rays[:, 0])) % 360, np.degrees(np.arcsin(rays[:, 2]))])
     fit = sp.fit_pointing(radec, off + 512, (1024, 1024), focal_px=f * 1.1)
     assert fit.converged and abs(fit.focal_px / f - 1) < 1e-9
+
+
+def test_inconsistent_distances_are_flagged() -> None:
+    stars = [[83.0, -1.0], [86.5, 2.0], [80.5, 3.0]]
+    sols = sp.boresight_from_distances(stars, [10.0, 5000.0, 10.0], focal_px=2435.68)
+    assert sols and sols[0].inconsistent and sols[0].rms_px > sp.INCONSISTENT_RMS_PX
+    good = sp.boresight_from_distances(stars, [67.23, 142.72, 166.21], focal_px=2435.68)
+    assert not good[0].inconsistent

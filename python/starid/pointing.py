@@ -92,6 +92,10 @@ class BoresightSolution:
         Another solution fits as well: distances alone cannot tell them apart.
     degenerate : bool
         The geometry leaves a direction (nearly) undetermined; do not trust this solution.
+    inconsistent : bool
+        The distances cannot all be met: the best fit still misses them by more than
+        :data:`INCONSISTENT_RMS_PX` (rms). The solution is the least-squares compromise of
+        distances that do not belong together (a wrong star, a wrong focal length).
     condition : float
         Reciprocal condition of the problem at the solution (1 ideal, 0 singular).
     unit_covariance : ndarray or None
@@ -111,6 +115,7 @@ class BoresightSolution:
     converged: bool
     iterations: int
     unit_covariance: Optional[npt.NDArray[np.float64]]
+    inconsistent: bool = False
 
     def boresight_sigma_arcsec(self, sigma_px: float) -> float:
         """Predicted 1σ boresight error (arcsec) for ``sigma_px`` of noise on each distance."""
@@ -118,6 +123,11 @@ class BoresightSolution:
             return math.inf
         c = self.unit_covariance
         return float(sigma_px * math.sqrt(c[0, 0] + c[1, 1]) * ARCSEC_PER_RAD)
+
+
+#: A boresight solution whose distances are missed by more than this (rms, pixels) is flagged
+#: ``inconsistent``: far beyond centroid noise, the distances do not belong together.
+INCONSISTENT_RMS_PX = 5.0
 
 
 def boresight_from_distances(
@@ -194,6 +204,7 @@ def boresight_from_distances(
             converged=bool(d["converged"]),
             iterations=int(d["iterations"]),
             unit_covariance=d["unit_covariance"],
+            inconsistent=float(d["rms_px"]) > INCONSISTENT_RMS_PX,
         )
         for i, d in enumerate(raw)
     ]
