@@ -109,3 +109,13 @@ def test_bad_arrays() -> None:
         starid.Catalog([1.5], [0.0], [0.0], [1.0])
     with pytest.raises(ValueError):
         starid.Catalog([1], ["a"], [0.0], [1.0])
+
+
+def test_catalog_error_names_file_and_line(tmp_path: Path) -> None:
+    p = tmp_path / "cat.csv"
+    p.write_text("id,ra_deg,dec_deg,mag\n1,10,20,3\n2,10,oops,3\n")
+    with pytest.raises(starid.CatalogError) as info:
+        starid.Catalog.from_csv(p)
+    assert str(p) in str(info.value)
+    assert getattr(info.value, "path") == str(p) and getattr(info.value, "line") == 3
+    assert isinstance(info.value, ValueError)

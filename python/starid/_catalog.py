@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 from typing import Any, Optional, Union
 
@@ -21,6 +22,16 @@ PathLike = Union[str, "os.PathLike[str]"]
 DEFAULT_CATALOG_PATH = Path(__file__).parent / "data" / "hipparcos_hp6.5_j2000.csv"
 
 _default: Optional["Catalog"] = None
+
+
+def _with_path(e: Exception, path: str) -> CatalogError:
+    """The error again, with the file's name first ("cat.csv: line 2: ...") and, as attributes,
+    ``path`` and ``line`` (None when the error is not about one line)."""
+    m = re.search(r"line (\d+)", str(e))
+    err = CatalogError(f"{path}: {e}")
+    setattr(err, "path", path)
+    setattr(err, "line", int(m.group(1)) if m else None)
+    return err
 
 
 class Catalog:
@@ -111,8 +122,7 @@ class Catalog:
         try:
             native = _starid.Catalog.from_table_path(path)
         except CatalogError as e:
-            # The file's name with the line: "cat.csv: line 2: dec_deg ... is not a number".
-            raise CatalogError(f"{path}: {e}") from None
+            raise _with_path(e, path) from None
         return cls._wrap(native, Path(path).name)
 
     @classmethod
