@@ -35,32 +35,28 @@ impl PyCatalog {
     /// A solver whose pair index covers `max_angle_rad`, reusing a cached one when it is not
     /// much larger than needed (a larger index is correct but slower to query).
     pub fn solver(&self, py: Python<'_>, max_angle_rad: f64) -> PyResult<Arc<Solver>> {
-        let fits = |s: &Arc<Solver>| {
-            let m = s.pair_index().max_angle_rad();
-            m >= max_angle_rad && m <= 1.25 * max_angle_rad
+        // A cached index that covers the angle and is not much larger than needed.
+        let cached = || {
+            self.solvers
+                .lock()
+                .expect("solver cache poisoned")
+                .iter()
+                .find(|s| {
+                    let m = s.pair_index().max_angle_rad();
+                    m >= max_angle_rad && m <= 1.25 * max_angle_rad
+                })
+                .cloned()
         };
-        if let Some(s) = self
-            .solvers
-            .lock()
-            .expect("solver cache poisoned")
-            .iter()
-            .find(|s| fits(s))
-        {
-            return Ok(s.clone());
+        if let Some(s) = cached() {
+            return Ok(s);
         }
         // One build per index: threads that ask at once wait for the first (with the GIL
         // released) and take its result from the cache.
         let solver = py
             .detach(|| -> starid_core::Result<Arc<Solver>> {
                 let _building = self.building.lock().expect("build lock poisoned");
-                if let Some(s) = self
-                    .solvers
-                    .lock()
-                    .expect("solver cache poisoned")
-                    .iter()
-                    .find(|s| fits(s))
-                {
-                    return Ok(s.clone());
+                if let Some(s) = cached() {
+                    return Ok(s);
                 }
                 // Build with a little margin so that nearby fields of view share one index.
                 let solver = Arc::new(Solver::new(self.inner.clone(), max_angle_rad * 1.02)?);

@@ -166,7 +166,7 @@ impl Search<'_> {
                 let mag_index = self.solver.mag_pair_index();
                 self.catalogue_triangles_gated(mag_index, [t_ij, t_ik, t_jk], eps, windows, &mut triangles);
             }
-            None => self.catalogue_triangles(t_ij, t_ik, t_jk, eps, None, &mut triangles),
+            None => self.catalogue_triangles(t_ij, t_ik, t_jk, eps, &mut triangles),
         }
         let cat = self.solver.catalog.vectors();
         let mut result = Ok(None);
@@ -223,7 +223,6 @@ impl Search<'_> {
         t_ik: f64,
         t_jk: f64,
         eps: f64,
-        windows: Option<[[f32; 2]; 3]>,
         out: &mut Vec<[u32; 3]>,
     ) {
         out.clear();
@@ -263,27 +262,10 @@ impl Search<'_> {
         let look_other = if l0 == shared { l1 } else { l0 };
         let t_close = [t_ij, t_ik, t_jk][closing];
         let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
-        let mags = self.solver.mag_f32();
-        // Whether catalogue star `s` may stand at triangle vertex `v` (always, ungated).
-        let fits = |s: u32, v: usize| -> bool {
-            windows.is_none_or(|w| {
-                let m = mags[s as usize];
-                m >= w[v][0] && m <= w[v][1]
-            })
-        };
-        if windows.is_some() {
-            self.scratch.adj_ik.fill_filtered(idx.pairs(look.0.clone()), n_cat, |a, b| {
-                fits(a, shared) && fits(b, look_other)
-            });
-        } else {
-            self.scratch.adj_ik.fill(idx.pairs(look.0.clone()), n_cat);
-        }
+        self.scratch.adj_ik.fill(idx.pairs(look.0.clone()), n_cat);
         let adj = &self.scratch.adj_ik;
         for [p, q] in idx.pairs(walk.0) {
             for (x, y) in [(p, q), (q, p)] {
-                if windows.is_some() && !(fits(x, shared) && fits(y, walk_other)) {
-                    continue;
-                }
                 let vy = &cat[y as usize];
                 for z in adj.partners(x) {
                     let c = vy.dot(&cat[z as usize]);
@@ -431,24 +413,7 @@ pub(super) struct Adjacency {
 }
 
 impl Adjacency {
-    /// Fill with the pairs (both orientations) for which `keep(star, partner)` holds.
-    pub(super) fn fill_filtered(
-        &mut self,
-        pairs: impl Iterator<Item = [u32; 2]>,
-        n_cat: usize,
-        keep: impl Fn(u32, u32) -> bool,
-    ) {
-        self.reset(n_cat);
-        for [p, q] in pairs {
-            if keep(p, q) {
-                self.push(p, q);
-            }
-            if keep(q, p) {
-                self.push(q, p);
-            }
-        }
-    }
-
+    /// Empty the lists, sized for a catalogue of `n_cat` stars.
     pub(super) fn reset(&mut self, n_cat: usize) {
         for &s in &self.touched {
             self.head[s as usize] = NONE;
@@ -463,16 +428,7 @@ impl Adjacency {
     }
 
     pub(super) fn fill(&mut self, pairs: impl Iterator<Item = [u32; 2]>, n_cat: usize) {
-        for &s in &self.touched {
-            self.head[s as usize] = NONE;
-        }
-        if self.head.len() != n_cat {
-            self.head.clear();
-            self.head.resize(n_cat, NONE);
-        }
-        self.touched.clear();
-        self.next.clear();
-        self.partner.clear();
+        self.reset(n_cat);
         for [p, q] in pairs {
             self.push(p, q);
             self.push(q, p);
