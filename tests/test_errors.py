@@ -136,3 +136,13 @@ def test_index_is_built_once_for_threads_that_ask_at_once() -> None:
         infos = list(pool.map(lambda _: cat.index_info(11.0, (512, 512)), range(8)))
     # One build: every thread gets the same index (the same build time, to the nanosecond).
     assert len({i["build_time_s"] for i in infos}) == 1
+
+
+def test_argument_checks_raise_the_typed_error() -> None:
+    # The Python layer's own checks and the bindings' alike: InvalidInputError (a ValueError).
+    with pytest.raises(starid.InvalidInputError, match="shape"):
+        ident([1.0, 2.0, 3.0])
+    with pytest.raises(starid.InvalidInputError, match="fov_deg"):
+        ident(GOOD, fov_deg=500.0)
+    with pytest.raises(starid.InvalidInputError, match="timeout_s"):
+        ident(GOOD, timeout_s=1e20)

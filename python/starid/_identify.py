@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
+from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog
 
 __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "identify_many", "simulate"]
@@ -71,13 +72,13 @@ def _image_size(image_size: Any) -> tuple[float, float]:
 
 def _check_image_size(image_size: Any) -> tuple[float, float]:
     if image_size is None:
-        raise ValueError("image_size=(width_px, height_px) is required")
+        raise InvalidInputError("image_size=(width_px, height_px) is required")
     try:
         w, h = (float(v) for v in image_size)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"image_size must be a pair (width_px, height_px), got {image_size!r}") from e
+        raise InvalidInputError(f"image_size must be a pair (width_px, height_px), got {image_size!r}") from e
     if not (math.isfinite(w) and math.isfinite(h) and w >= 1 and h >= 1):
-        raise ValueError(f"image_size must be positive and finite, got {image_size!r}")
+        raise InvalidInputError(f"image_size must be positive and finite, got {image_size!r}")
     return w, h
 
 
@@ -89,21 +90,21 @@ def _fov_range(fov_range_deg: Any) -> tuple[float, float]:
     try:
         lo, hi = (float(v) for v in fov_range_deg)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"fov_range_deg must be a pair (lo, hi) in degrees, got {fov_range_deg!r}") from e
+        raise InvalidInputError(f"fov_range_deg must be a pair (lo, hi) in degrees, got {fov_range_deg!r}") from e
     if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi < 179.0):
-        raise ValueError(f"fov_range_deg must satisfy 0 < lo <= hi < 179 degrees, got {fov_range_deg!r}")
+        raise InvalidInputError(f"fov_range_deg must satisfy 0 < lo <= hi < 179 degrees, got {fov_range_deg!r}")
     return lo, hi
 
 
 def _fov(fov_deg: Any) -> float:
     if fov_deg is None:
-        raise ValueError("fov_deg (the full field of view across the image width, degrees) is required")
+        raise InvalidInputError("fov_deg (the full field of view across the image width, degrees) is required")
     try:
         fov = float(fov_deg)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"fov_deg must be a number, got {fov_deg!r}") from e
+        raise InvalidInputError(f"fov_deg must be a number, got {fov_deg!r}") from e
     if not (math.isfinite(fov) and 0.0 < fov < 179.0):
-        raise ValueError(f"fov_deg must be in (0, 179) degrees, got {fov_deg!r}")
+        raise InvalidInputError(f"fov_deg must be in (0, 179) degrees, got {fov_deg!r}")
     return fov
 
 
@@ -117,11 +118,11 @@ def _xy(xy: Any, name: str = "xy") -> npt.NDArray[np.float64]:
     try:
         a = np.ascontiguousarray(xy, dtype=np.float64)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be an (N, 2) array of pixel centroids: {e}") from e
+        raise InvalidInputError(f"{name} must be an (N, 2) array of pixel centroids: {e}") from e
     if a.size == 0 and a.ndim <= 2:
         return np.empty((0, 2), dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (N, 2) holding (x, y) pixel centroids, got shape {a.shape}")
+        raise InvalidInputError(f"{name} must have shape (N, 2) holding (x, y) pixel centroids, got shape {a.shape}")
     return a
 
 
@@ -131,9 +132,9 @@ def _magnitudes(magnitudes: Any, n: int) -> Optional[npt.NDArray[np.float64]]:
     try:
         m = np.ascontiguousarray(magnitudes, dtype=np.float64).ravel()
     except (TypeError, ValueError) as e:
-        raise ValueError(f"magnitudes must be numeric: {e}") from e
+        raise InvalidInputError(f"magnitudes must be numeric: {e}") from e
     if m.shape[0] != n:
-        raise ValueError(f"magnitudes has {m.shape[0]} values for {n} centroids")
+        raise InvalidInputError(f"magnitudes has {m.shape[0]} values for {n} centroids")
     return m
 
 
@@ -142,9 +143,9 @@ def _count(name: str, value: Any) -> int:
     try:
         v = int(value)
     except (TypeError, ValueError, OverflowError) as e:
-        raise ValueError(f"{name} must be a whole number, got {value!r}") from e
+        raise InvalidInputError(f"{name} must be a whole number, got {value!r}") from e
     if v != value or not 0 <= v <= 2**32:
-        raise ValueError(f"{name} must be a whole number in [0, 2**32], got {value!r}")
+        raise InvalidInputError(f"{name} must be a whole number in [0, 2**32], got {value!r}")
     return v
 
 
@@ -179,7 +180,7 @@ def _check_config(
     brightness_order: bool = True,
 ) -> Any:
     if not isinstance(method, str):
-        raise ValueError(f"method must be a string (one of {', '.join(METHODS)}), got {method!r}")
+        raise InvalidInputError(f"method must be a string (one of {', '.join(METHODS)}), got {method!r}")
     return _native_config(
         None if centroid_sigma_px is None else float(centroid_sigma_px),
         float(max_false_match_prob),
@@ -357,7 +358,7 @@ def identify(
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
         return _starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg)
     if fov_range_deg is not None:
-        raise ValueError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
+        raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
     fov = _fov(fov_deg)
     return _starid.identify(cat._native, a, m, w, h, fov, cfg)
 
@@ -407,7 +408,7 @@ def identify_many(
     # One malformed frame does not stop the batch: it gets status "invalid_input" and the
     # reason in ``message``; the others are identified as usual.
     if magnitudes is not None and len(magnitudes) != len(frames):
-        raise ValueError(f"magnitudes has {len(magnitudes)} entries for {len(frames)} frames")
+        raise InvalidInputError(f"magnitudes has {len(magnitudes)} entries for {len(frames)} frames")
     xys: list[npt.NDArray[np.float64]] = []
     mags_or_none: list[Optional[npt.NDArray[np.float64]]] = []
     bad: dict[int, str] = {}
@@ -422,7 +423,7 @@ def identify_many(
         mags_or_none.append(m)
     mags = None if magnitudes is None else mags_or_none
     if threads is not None and int(threads) < 1:
-        raise ValueError(f"threads must be at least 1 (or None for all cores), got {threads}")
+        raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
     cfg = _config(
         centroid_sigma_px,
         max_false_match_prob,
@@ -517,12 +518,12 @@ def simulate(
         seed = secrets.randbits(63)
     seed = int(seed)
     if not 0 <= seed < 2**64:
-        raise ValueError(f"seed must be in [0, 2**64), got {seed}")
+        raise InvalidInputError(f"seed must be in [0, 2**64), got {seed}")
     att = None if attitude_deg is None else tuple(float(v) for v in attitude_deg)
     if att is not None and len(att) != 3:
-        raise ValueError("attitude_deg must be (ra_deg, dec_deg, roll_deg)")
+        raise InvalidInputError("attitude_deg must be (ra_deg, dec_deg, roll_deg)")
     if int(false_stars) < 0:
-        raise ValueError(f"false_stars must be >= 0, got {false_stars}")
+        raise InvalidInputError(f"false_stars must be >= 0, got {false_stars}")
     d = _starid.simulate(
         cat._native,
         fov,
@@ -573,12 +574,12 @@ def simulate_scene(family: str, catalog: CatalogLike = None, *, seed: Optional[i
     """
     cat = resolve_catalog(catalog)
     if not isinstance(family, str) or family.upper() not in SCENE_FAMILIES:
-        raise ValueError(f"family must be one of {', '.join(SCENE_FAMILIES)}, got {family!r}")
+        raise InvalidInputError(f"family must be one of {', '.join(SCENE_FAMILIES)}, got {family!r}")
     if seed is None:
         seed = secrets.randbits(63)
     seed = int(seed)
     if not 0 <= seed < 2**64:
-        raise ValueError(f"seed must be in [0, 2**64), got {seed}")
+        raise InvalidInputError(f"seed must be in [0, 2**64), got {seed}")
     d = _starid.simulate_scene(cat._native, family.upper(), seed)
     return Frame(
         xy=d["xy"],

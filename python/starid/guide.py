@@ -40,6 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
+from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -91,7 +92,7 @@ def qtm_triangle_count(level: int) -> int:
     (8, 2048)
     """
     if level < 1:
-        raise ValueError(f"the QTM level must be >= 1, got {level}")
+        raise InvalidInputError(f"the QTM level must be >= 1, got {level}")
     return int(8 * 4 ** (level - 1))
 
 
@@ -137,20 +138,20 @@ def select(catalog: Union[Catalog, PathLike, None] = None, method: str = "qtm-we
         "qtm-weighted": {"level"},
     }
     if method not in allowed:
-        raise ValueError(f"unknown selection method {method!r}; use one of {', '.join(METHODS)}")
+        raise InvalidInputError(f"unknown selection method {method!r}; use one of {', '.join(METHODS)}")
     unknown = set(params) - allowed[method]
     if unknown:
-        raise ValueError(
+        raise InvalidInputError(
             f"method {method!r} takes {sorted(allowed[method])}, not {sorted(unknown)}"
         )
     kwargs: dict[str, Any] = {}
     if method == "magnitude":
         if "mag_limit" not in params:
-            raise ValueError("method 'magnitude' needs mag_limit")
+            raise InvalidInputError("method 'magnitude' needs mag_limit")
         kwargs["mag_limit"] = _finite("mag_limit", params["mag_limit"])
     elif method == "doubles":
         if "separation_deg" not in params:
-            raise ValueError("method 'doubles' needs separation_deg")
+            raise InvalidInputError("method 'doubles' needs separation_deg")
         kwargs["separation_deg"] = _finite("separation_deg", params["separation_deg"])
         kwargs["merge"] = bool(params.get("merge", False))
     elif method == "rectangle":
@@ -158,9 +159,9 @@ def select(catalog: Union[Catalog, PathLike, None] = None, method: str = "qtm-we
     else:
         level = params.get("level", 5)
         if isinstance(level, bool) or not isinstance(level, (int, np.integer)):
-            raise ValueError(f"level must be an integer, got {level!r}")
+            raise InvalidInputError(f"level must be an integer, got {level!r}")
         if not 1 <= int(level) <= 20:
-            raise ValueError(f"the QTM level must be in 1..20 (level 1 is the octahedron's 8 faces), got {level}")
+            raise InvalidInputError(f"the QTM level must be in 1..20 (level 1 is the octahedron's 8 faces), got {level}")
         kwargs["level"] = int(level)
     native = _starid.guide_select(cat._native, method, **kwargs)
     return Catalog._wrap(native, f"{cat.name or 'catalog'} [{method}]")
@@ -273,24 +274,24 @@ def fov_for_coverage(
     """
     cat = resolve_catalog(catalog)
     if not 0.0 < p <= 1.0:
-        raise ValueError(f"p must be in (0, 1], got {p}")
+        raise InvalidInputError(f"p must be in (0, 1], got {p}")
     if k < 1:
-        raise ValueError(f"k must be >= 1, got {k}")
+        raise InvalidInputError(f"k must be >= 1, got {k}")
     trials = _count("trials", trials)
     lo_deg, hi_deg, tol_deg = _finite("lo_deg", lo_deg), _finite("hi_deg", hi_deg), _finite("tol_deg", tol_deg)
     if not 0.0 < lo_deg < hi_deg <= 180.0:
-        raise ValueError(f"need 0 < lo_deg < hi_deg <= 180, got lo_deg={lo_deg}, hi_deg={hi_deg}")
+        raise InvalidInputError(f"need 0 < lo_deg < hi_deg <= 180, got lo_deg={lo_deg}, hi_deg={hi_deg}")
     # The bisection halves the bracket each step: a tolerance below 1e-6 degrees (or zero) would
     # never end in floating point.
     if not tol_deg >= 1e-6:
-        raise ValueError(f"tol_deg must be at least 1e-6 degrees, got {tol_deg}")
+        raise InvalidInputError(f"tol_deg must be at least 1e-6 degrees, got {tol_deg}")
 
     def coverage(fov: float) -> float:
         hist = stars_per_field(cat, fov, trials, field=field, seed=seed)
         return float(hist[k:].sum()) / trials
 
     if coverage(hi_deg) < p:
-        raise ValueError(f"even a {hi_deg:g} degree {field} field holds {k} stars in less than {p:.4%} of pointings")
+        raise InvalidInputError(f"even a {hi_deg:g} degree {field} field holds {k} stars in less than {p:.4%} of pointings")
     lo, hi = lo_deg, hi_deg
     while hi - lo > tol_deg:
         mid = 0.5 * (lo + hi)
@@ -372,7 +373,7 @@ def plot(
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("starid.guide.plot needs matplotlib: pip install 'starid[plot]'") from e
     if not selections:
-        raise ValueError("nothing to plot: pass at least one selection")
+        raise InvalidInputError("nothing to plot: pass at least one selection")
     n = len(selections)
     fig = plt.figure(figsize=(7.5, 3.9 * n))
     for i, (name, cat) in enumerate(selections.items()):
@@ -398,9 +399,9 @@ def _finite(name: str, value: Any) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+        raise InvalidInputError(f"{name} must be a number, got {value!r}") from None
     if not np.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {v}")
+        raise InvalidInputError(f"{name} must be finite, got {v}")
     return v
 
 
@@ -410,15 +411,15 @@ MAX_TRIALS = 10_000_000
 
 def _count(name: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
+        raise InvalidInputError(f"{name} must be an integer, got {value!r}")
     if value < 1:
-        raise ValueError(f"{name} must be >= 1, got {value}")
+        raise InvalidInputError(f"{name} must be >= 1, got {value}")
     if name == "trials" and value > MAX_TRIALS:
-        raise ValueError(f"trials must be at most {MAX_TRIALS}, got {value}")
+        raise InvalidInputError(f"trials must be at most {MAX_TRIALS}, got {value}")
     return int(value)
 
 
 def _seed(seed: Any) -> int:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
+        raise InvalidInputError(f"seed must be an integer in [0, 2**64), got {seed!r}")
     return int(seed)

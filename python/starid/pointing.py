@@ -33,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
+from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog
 from ._identify import Identification, _image_size, _xy
 
@@ -59,7 +60,7 @@ def focal_from_fov(fov_deg: float, width_px: float) -> float:
     2435.677
     """
     if not (0.0 < fov_deg < 179.0) or not width_px > 0:
-        raise ValueError(f"need 0 < fov_deg < 179 and width_px > 0, got {fov_deg}, {width_px}")
+        raise InvalidInputError(f"need 0 < fov_deg < 179 and width_px > 0, got {fov_deg}, {width_px}")
     return 0.5 * width_px / math.tan(math.radians(fov_deg) / 2)
 
 
@@ -70,7 +71,7 @@ def fov_from_focal(focal_px: float, width_px: float) -> float:
     12.0
     """
     if not focal_px > 0 or not width_px > 0:
-        raise ValueError(f"need focal_px > 0 and width_px > 0, got {focal_px}, {width_px}")
+        raise InvalidInputError(f"need focal_px > 0 and width_px > 0, got {focal_px}, {width_px}")
     return math.degrees(2 * math.atan(0.5 * width_px / focal_px))
 
 
@@ -179,10 +180,10 @@ def boresight_from_distances(
     raw = list(_starid.boresight_from_distances(rd, a, f))
     if focal_range_px is not None:
         if f is not None:
-            raise ValueError("focal_range_px only applies when focal_px is not given")
+            raise InvalidInputError("focal_range_px only applies when focal_px is not given")
         lo, hi = (float(v) for v in focal_range_px)
         if not (0 < lo <= hi and math.isfinite(hi)):
-            raise ValueError(f"focal_range_px must be (lo, hi) with 0 < lo <= hi, got {focal_range_px!r}")
+            raise InvalidInputError(f"focal_range_px must be (lo, hi) with 0 < lo <= hi, got {focal_range_px!r}")
         raw = [d for d in raw if lo <= d["focal_px"] <= hi]
         if raw:
             # Ambiguity among the solutions the range allows (the rule of the core).
@@ -243,7 +244,7 @@ class PointingFit:
 
 def _focal_guess(focal_px: Optional[float], fov_deg: Optional[float], width: float) -> Optional[float]:
     if focal_px is not None and fov_deg is not None:
-        raise ValueError("give focal_px or fov_deg, not both")
+        raise InvalidInputError("give focal_px or fov_deg, not both")
     if fov_deg is not None:
         return focal_from_fov(float(fov_deg), width)
     return None if focal_px is None else float(focal_px)
@@ -286,7 +287,7 @@ def fit_pointing(
     a = _xy(xy)
     f0 = _focal_guess(focal_px, fov_deg, w)
     if not fit_focal and f0 is None:
-        raise ValueError("with fit_focal=False the focal length must be given (focal_px or fov_deg)")
+        raise InvalidInputError("with fit_focal=False the focal length must be given (focal_px or fov_deg)")
     d = _starid.fit_pointing(
         rd, a, w, h, f0, bool(fit_focal), bool(fit_principal_point), bool(fit_k1), bool(mirrored),
         None if sigma_px is None else float(sigma_px),
@@ -344,18 +345,18 @@ def refine(
     True
     """
     if not result.ok:
-        raise ValueError("the identification has no solution to refine")
+        raise InvalidInputError("the identification has no solution to refine")
     w, h = _image_size(image_size)
     cat = resolve_catalog(catalog)
     a = _xy(xy)
     if a.shape[0] != len(result.ids):
-        raise ValueError(f"xy has {a.shape[0]} rows but the identification has {len(result.ids)} ids")
+        raise InvalidInputError(f"xy has {a.shape[0]} rows but the identification has {len(result.ids)} ids")
     matched = result.ids >= 0
     row_of = {int(i): k for k, i in enumerate(cat.ids)}
     try:
         rows = [row_of[int(i)] for i in result.ids[matched]]
     except KeyError as e:
-        raise ValueError(f"catalogue id {e.args[0]} is not in this catalogue: pass the one used to identify") from None
+        raise InvalidInputError(f"catalogue id {e.args[0]} is not in this catalogue: pass the one used to identify") from None
     radec = np.column_stack([cat.ra_deg[rows], cat.dec_deg[rows]])
     return fit_pointing(
         radec,
@@ -379,7 +380,7 @@ def _offsets(xy: npt.ArrayLike, image_size: tuple[float, float]) -> npt.NDArray[
 def _focal(focal_px: Optional[float], fov_deg: Optional[float], width: float) -> float:
     f = _focal_guess(focal_px, fov_deg, width)
     if f is None:
-        raise ValueError("give the camera: focal_px or fov_deg")
+        raise InvalidInputError("give the camera: focal_px or fov_deg")
     return f
 
 
@@ -479,7 +480,7 @@ def _radec(radec_deg: npt.ArrayLike) -> npt.NDArray[np.float64]:
     try:
         a = np.ascontiguousarray(radec_deg, dtype=np.float64)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"radec_deg must be an (N, 2) array of RA, Dec in degrees: {e}") from e
+        raise InvalidInputError(f"radec_deg must be an (N, 2) array of RA, Dec in degrees: {e}") from e
     if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"radec_deg must have shape (N, 2) holding (ra_deg, dec_deg), got shape {a.shape}")
+        raise InvalidInputError(f"radec_deg must have shape (N, 2) holding (ra_deg, dec_deg), got shape {a.shape}")
     return a

@@ -1,14 +1,15 @@
 //! numpy ↔ core conversions with shape and value checks that name the argument.
 
 use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
 use pyo3::PyResult;
+
+use crate::errors::InvalidInputError;
 
 /// An (N, 2) float64 array of pixel centroids as `[x, y]` rows.
 pub fn centroids(name: &str, xy: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
     let shape = xy.shape();
     if shape[1] != 2 {
-        return Err(PyValueError::new_err(format!(
+        return Err(InvalidInputError::new_err(format!(
             "{name} must have shape (N, 2) holding (x, y) pixel centroids, got shape ({}, {})",
             shape[0], shape[1]
         )));
@@ -22,7 +23,7 @@ pub fn vector(name: &str, a: &PyReadonlyArray1<'_, f64>, len: Option<usize>) -> 
     let v: Vec<f64> = a.as_array().iter().copied().collect();
     if let Some(n) = len {
         if v.len() != n {
-            return Err(PyValueError::new_err(format!(
+            return Err(InvalidInputError::new_err(format!(
                 "{name} has {} values, expected {n}",
                 v.len()
             )));

@@ -1,8 +1,9 @@
 //! Guide-star selection and metrics (`starid.guide`).
 
 use numpy::IntoPyArray;
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+
+use crate::errors::InvalidInputError;
 use pyo3::types::PyDict;
 use starid_core::guide::{self, DoubleRule, Field, QtmRule};
 
@@ -12,7 +13,7 @@ use crate::run_core;
 fn positive_deg(name: &str, value: Option<f64>) -> PyResult<f64> {
     match value {
         Some(v) => Ok(v.to_radians()),
-        None => Err(PyValueError::new_err(format!("this method needs {name}"))),
+        None => Err(InvalidInputError::new_err(format!("this method needs {name}"))),
     }
 }
 
@@ -35,7 +36,7 @@ pub fn guide_select(
     let selected = match method {
         "magnitude" => {
             let limit = mag_limit
-                .ok_or_else(|| PyValueError::new_err("method 'magnitude' needs mag_limit"))?;
+                .ok_or_else(|| InvalidInputError::new_err("method 'magnitude' needs mag_limit"))?;
             run_core(py, move || guide::select_magnitude(&cat, limit))?
         }
         "doubles" => {
@@ -53,7 +54,7 @@ pub fn guide_select(
         }
         "qtm" | "qtm-weighted" => {
             let level = level
-                .ok_or_else(|| PyValueError::new_err(format!("method '{method}' needs level")))?;
+                .ok_or_else(|| InvalidInputError::new_err(format!("method '{method}' needs level")))?;
             let rule = if method == "qtm" {
                 QtmRule::Brightest
             } else {
@@ -62,7 +63,7 @@ pub fn guide_select(
             run_core(py, move || guide::select_qtm(&cat, level, rule))?
         }
         other => {
-            return Err(PyValueError::new_err(format!(
+            return Err(InvalidInputError::new_err(format!(
                 "unknown selection method {other:?}; use 'magnitude', 'doubles', 'rectangle', \
                  'qtm' or 'qtm-weighted'"
             )))
@@ -76,7 +77,7 @@ fn parse_field(field: &str, fov_deg: f64) -> PyResult<Field> {
     match field {
         "circle" => Ok(Field::Circle { fov_rad }),
         "square" => Ok(Field::Square { fov_rad }),
-        other => Err(PyValueError::new_err(format!(
+        other => Err(InvalidInputError::new_err(format!(
             "field must be 'circle' or 'square', got {other:?}"
         ))),
     }

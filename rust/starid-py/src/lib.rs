@@ -17,7 +17,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
@@ -67,7 +66,7 @@ impl PyIdentifyConfig {
                 Some(std::time::Duration::from_secs_f64(t))
             }
             Some(t) => {
-                return Err(PyValueError::new_err(format!(
+                return Err(InvalidInputError::new_err(format!(
                     "timeout_s must be positive, finite and at most 1e9 seconds, got {t}"
                 )))
             }
@@ -204,7 +203,7 @@ fn identify_many<'py>(
     threads: Option<usize>,
 ) -> PyResult<Vec<PyIdentification>> {
     if threads == Some(0) {
-        return Err(PyValueError::new_err(
+        return Err(InvalidInputError::new_err(
             "threads must be at least 1 (or None for all cores)",
         ));
     }
@@ -221,7 +220,7 @@ fn identify_many<'py>(
         None => vec![None; frames.len()],
         Some(m) => {
             if m.len() != frames.len() {
-                return Err(PyValueError::new_err(format!(
+                return Err(InvalidInputError::new_err(format!(
                     "magnitudes has {} entries for {} frames",
                     m.len(),
                     frames.len()
@@ -262,7 +261,7 @@ fn identify_many<'py>(
         }
         batch
             .join()
-            .map_err(|_| PyValueError::new_err("identification thread panicked"))?
+            .map_err(|_| InvalidInputError::new_err("identification thread panicked"))?
             .map_err(|e| PyStaridError(e).into())
     })?;
     let cat = &catalog.get().inner;
@@ -299,7 +298,7 @@ fn simulate<'py>(
         None => None,
         Some((ra, dec, roll)) => {
             if !(ra.is_finite() && roll.is_finite() && (-90.0..=90.0).contains(&dec)) {
-                return Err(PyValueError::new_err(format!(
+                return Err(InvalidInputError::new_err(format!(
                     "attitude_deg must be finite (ra, dec, roll) with dec in [-90, 90], got ({ra}, {dec}, {roll})"
                 )));
             }

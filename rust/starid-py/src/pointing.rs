@@ -2,8 +2,9 @@
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+
+use crate::errors::InvalidInputError;
 use pyo3::types::{PyDict, PyList};
 use starid_core::geometry::{radec_to_unit, unit_to_radec};
 use starid_core::pointing::{self, PointingFit, RefineOptions};
@@ -27,7 +28,7 @@ fn directions(
     radec_deg: &PyReadonlyArray2<'_, f64>,
 ) -> PyResult<Vec<nalgebra::Vector3<f64>>> {
     let rows = convert::centroids(name, radec_deg).map_err(|_| {
-        PyValueError::new_err(format!(
+        InvalidInputError::new_err(format!(
             "{name} must have shape (N, 2) holding (ra_deg, dec_deg)"
         ))
     })?;
@@ -35,7 +36,7 @@ fn directions(
         .enumerate()
         .map(|(i, r)| {
             if !r[0].is_finite() || !r[1].is_finite() || r[1].abs() > 90.0 {
-                Err(PyValueError::new_err(format!(
+                Err(InvalidInputError::new_err(format!(
                     "{name} row {i} must be a finite RA and a declination in [-90, 90] degrees, got ({}, {})",
                     r[0], r[1]
                 )))
@@ -239,7 +240,7 @@ pub fn identify_unknown_fov<'py>(
         && fov_lo_deg <= fov_hi_deg
         && fov_hi_deg < 179.0)
     {
-        return Err(PyValueError::new_err(format!(
+        return Err(InvalidInputError::new_err(format!(
             "fov_range_deg must be (lo, hi) with 0 < lo <= hi < 179 degrees, got ({fov_lo_deg}, {fov_hi_deg})"
         )));
     }
