@@ -119,3 +119,81 @@ def test_catalog_error_names_file_and_line(tmp_path: Path) -> None:
     assert str(p) in str(info.value)
     assert getattr(info.value, "path") == str(p) and getattr(info.value, "line") == 3
     assert isinstance(info.value, ValueError)
+
+
+def test_quoted_fields_may_hold_commas(tmp_path: Path) -> None:
+    p = tmp_path / "named.csv"
+    p.write_text('id,name,ra_deg,dec_deg,mag\n32349,"Sirius, a CMa",101.287,-16.716,-1.46\n7,"x ""y""",1,2,3\n')
+    cat = starid.Catalog.from_csv(p)
+    assert cat.ids.tolist() == [32349, 7]
+    assert cat.mag[0] == pytest.approx(-1.46)
+    s = tmp_path / "stars.csv"
+    s.write_text('label,x,y,mag\n"a, b",10,20,3\nc,30,40,4\n')
+    lst = starid.starlist.read_star_list(s)
+    assert lst.labels == ["a, b", "c"] and lst.xy.tolist() == [[10, 20], [30, 40]]
+
+
+def test_ids_beyond_int64_are_refused(tmp_path: Path) -> None:
+    scipy_io = pytest.importorskip("scipy.io")
+    m = np.array([[2.0**63 + 5, 10.0, 0.0, 2.0], [2.0, 11.0, 1.0, 3.0]])
+    scipy_io.savemat(tmp_path / "big.mat", {"star_data": m})
+    with pytest.raises(starid.CatalogError, match="2\\*\\*53") as info:
+        starid.Catalog.from_mat(tmp_path / "big.mat")
+    assert str(tmp_path / "big.mat") in str(info.value)
+    with pytest.raises(starid.CatalogError, match="64-bit"):
+        starid.Catalog(np.array([2**63 + 5, 1], dtype=np.uint64), [0, 1], [0, 1], [1, 2])
+    with pytest.raises(starid.CatalogError, match="64-bit"):
+        starid.Catalog([2**63 + 5, 1], [0, 1], [0, 1], [1, 2])
+    p = tmp_path / "big.csv"
+    p.write_text("9223372036854775813,0,0,1\n")
+    with pytest.raises(starid.CatalogError, match="64-bit"):
+        starid.Catalog.from_csv(p)
+    # The largest int64 is a valid id.
+    assert starid.Catalog([2**63 - 1], [0], [0], [1]).ids.tolist() == [2**63 - 1]
+
+
+def test_ra_is_read_modulo_360() -> None:
+    cat = starid.Catalog([1, 2], [-10.0, 370.0], [0.0, 5.0], [1.0, 2.0])
+    assert cat.ra_deg == pytest.approx([350.0, 10.0])
+
+
+def test_from_mat_directory_names_the_directory(tmp_path: Path) -> None:
+    pytest.importorskip("scipy.io")
+    with pytest.raises(IsADirectoryError, match=str(tmp_path)):
+        starid.Catalog.from_mat(tmp_path)
+    with pytest.raises(FileNotFoundError) as info:
+        starid.Catalog.from_mat(tmp_path / "absent")
+    assert "absent.mat" not in str(info.value)
+
+
+def test_catalogue_pickles_compactly_and_identifies_alike(contest: starid.Catalog) -> None:
+    import pickle
+
+    frame = starid.simulate(catalog=contest, fov_deg=12.0, image_size=(512, 512), seed=4)
+    before = starid.identify(frame.xy, catalog=contest, fov_deg=12.0, image_size=(512, 512))
+    blob = pickle.dumps(contest)
+    assert len(blob) < 45 * len(contest) + 2000
+    back = pickle.loads(blob)
+    assert back.name == contest.name
+    assert np.array_equal(back.ids, contest.ids)
+    assert np.array_equal(back.unit_vectors, contest.unit_vectors)
+    assert np.array_equal(back.ra_deg, contest.ra_deg)
+    after = starid.identify(frame.xy, catalog=back, fov_deg=12.0, image_size=(512, 512))
+    assert after.ok and np.array_equal(after.ids, before.ids)
+    assert after.quaternion == pytest.approx(before.quaternion, abs=0)
+
+
+def test_catalogue_path_is_read_once(tmp_path: Path, contest: starid.Catalog) -> None:
+    from starid._catalog import resolve_catalog
+
+    p = tmp_path / "c.csv"
+    contest.to_csv(p)
+    a, b = resolve_catalog(p), resolve_catalog(str(p))
+    assert a is b
+    import os
+    import time
+
+    starid.Catalog([1, 2, 3], [0, 1, 2], [0, 1, 2], [1, 2, 3]).to_csv(p)
+    os.utime(p, ns=(time.time_ns(), time.time_ns() + 10**9))
+    c = resolve_catalog(p)
+    assert c is not a and len(c) == 3

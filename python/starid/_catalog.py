@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import csv
 import os
 import re
+import threading
 from pathlib import Path
 from typing import Any, Optional, Union
 
@@ -46,7 +48,9 @@ class Catalog:
     ids : array_like of int
         Catalogue ids (unique), e.g. HIP numbers.
     ra_deg, dec_deg : array_like of float
-        ICRS right ascension and declination in degrees.
+        ICRS right ascension and declination in degrees. Right ascension may be any finite
+        angle: it is read modulo 360 (-10 and 350 are the same) and reported in [0, 360).
+        Declination must lie in [-90, 90].
     mag : array_like of float
         Magnitudes (smaller is brighter).
     name : str, optional
@@ -61,6 +65,19 @@ class Catalog:
 
     __slots__ = ("_native", "name")
 
+    # Pickling ships the arrays (40 bytes a star: id, unit vector, magnitude), never the pair
+    # indexes: a worker that unpickles a catalogue builds its own index on first use.
+    def __getstate__(self) -> dict[str, Any]:
+        return {"ids": self.ids, "unit_vectors": self.unit_vectors, "mag": self.mag, "name": self.name}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self._native = _starid.Catalog.from_unit_vectors(
+            np.ascontiguousarray(state["ids"], dtype=np.int64),
+            np.ascontiguousarray(state["unit_vectors"], dtype=np.float64),
+            np.ascontiguousarray(state["mag"], dtype=np.float64),
+        )
+        self.name = state["name"]
+
     def __init__(
         self,
         ids: npt.ArrayLike,
@@ -70,14 +87,8 @@ class Catalog:
         *,
         name: Optional[str] = None,
     ) -> None:
-        ids_arr = np.asarray(ids)
-        if ids_arr.size and not np.issubdtype(ids_arr.dtype, np.integer):
-            as_float = np.asarray(ids_arr, dtype=np.float64)
-            if not np.all(np.isfinite(as_float)) or not np.all(as_float == np.round(as_float)):
-                raise ValueError("catalogue ids must be integers")
-            ids_arr = as_float
         native = _starid.Catalog(
-            np.ascontiguousarray(ids_arr, dtype=np.int64).ravel(),
+            _id_column(ids),
             _float_column("ra_deg", ra_deg),
             _float_column("dec_deg", dec_deg),
             _float_column("mag", mag),
@@ -139,8 +150,11 @@ class Catalog:
         from ._errors import CatalogError
 
         path = os.fspath(path)
+        if os.path.isdir(path):
+            raise IsADirectoryError(f"{path}: is a directory, not a .mat file")
         try:
-            data = loadmat(path)
+            # appendmat=False: a missing "cat" must not be reported as "cat.mat".
+            data = loadmat(path, appendmat=False)
         except FileNotFoundError:
             raise
         except Exception as e:  # scipy raises a zoo of types for corrupt files
@@ -258,10 +272,11 @@ class Catalog:
 
     def to_csv(self, path: PathLike) -> None:
         """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag``."""
-        with open(os.fspath(path), "w", encoding="utf-8") as f:
-            f.write("id,ra_deg,dec_deg,mag\n")
+        with open(os.fspath(path), "w", encoding="utf-8", newline="") as f:
+            w = csv.writer(f, lineterminator="\n")
+            w.writerow(["id", "ra_deg", "dec_deg", "mag"])
             for i, ra, dec, m in zip(self.ids, self.ra_deg, self.dec_deg, self.mag):
-                f.write(f"{i},{ra:.8f},{dec:.8f},{m:.4f}\n")
+                w.writerow([int(i), f"{ra:.8f}", f"{dec:.8f}", f"{m:.4f}"])
 
     def __len__(self) -> int:
         return len(self._native)
@@ -272,11 +287,50 @@ class Catalog:
         return f"Catalog({label}{len(self)} stars, mag {mag.min():.2f}..{mag.max():.2f})"
 
 
+_INT64_LIMIT = 2.0**63
+_EXACT_FLOAT_LIMIT = 2.0**53
+
+
+def _id_column(ids: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """Ids as int64, refusing what would not survive the conversion: fractions, non-finite
+    values, integers beyond 64 signed bits, and floats above 2**53 (which hold no exact integer)."""
+    if isinstance(ids, (list, tuple)):
+        big = next((v for v in ids if isinstance(v, int) and not -(2**63) <= v < 2**63), None)
+        if big is not None:
+            raise CatalogError(f"catalogue id {big} does not fit in a 64-bit signed integer")
+    try:
+        arr = np.asarray(ids)
+    except OverflowError as e:
+        raise CatalogError(f"catalogue ids must fit in 64-bit signed integers: {e}") from None
+    if arr.dtype == object:
+        try:
+            arr = np.asarray(arr.tolist(), dtype=np.int64)
+        except (OverflowError, TypeError, ValueError) as e:
+            raise CatalogError(f"catalogue ids must be 64-bit signed integers: {e}") from None
+    if arr.size and np.issubdtype(arr.dtype, np.unsignedinteger) and int(arr.max()) >= 2**63:
+        raise CatalogError(f"catalogue id {int(arr.max())} does not fit in a 64-bit signed integer")
+    if arr.size and not np.issubdtype(arr.dtype, np.integer):
+        try:
+            as_float = np.asarray(arr, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise CatalogError(f"catalogue ids must be integers: {e}") from None
+        if not np.all(np.isfinite(as_float)) or not np.all(as_float == np.round(as_float)):
+            raise CatalogError("catalogue ids must be integers")
+        big = np.abs(as_float) > _EXACT_FLOAT_LIMIT
+        if np.any(big):
+            raise CatalogError(
+                f"catalogue id {as_float[big][0]:.17g} is a float above 2**53, which holds no exact "
+                "integer (beyond int64 or rounded): give ids as integers"
+            )
+        arr = as_float
+    return np.ascontiguousarray(arr, dtype=np.int64).ravel()
+
+
 def _float_column(name: str, values: npt.ArrayLike) -> npt.NDArray[np.float64]:
     try:
         return np.ascontiguousarray(values, dtype=np.float64).ravel()
     except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be numeric: {e}") from e
+        raise CatalogError(f"{name} must be numeric: {e}") from e
 
 
 def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":
@@ -286,5 +340,34 @@ def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":
     if isinstance(catalog, Catalog):
         return catalog
     if isinstance(catalog, (str, os.PathLike)):
-        return Catalog.load(catalog)
+        return _load_cached(os.fspath(catalog))
     raise TypeError(f"catalog must be a starid.Catalog, a path or None, not {type(catalog).__name__}")
+
+
+_PATH_CACHE: "dict[tuple[str, int, int], Catalog]" = {}
+_PATH_CACHE_SIZE = 8
+_PATH_CACHE_LOCK = threading.Lock()
+
+
+def _load_cached(path: str) -> "Catalog":
+    """A catalogue file loaded once per (absolute path, modification time, size): repeated
+    ``catalog="file.csv"`` calls share one catalogue and its pair indexes. A changed file is
+    read again; the 8 most recent files are kept."""
+    full = os.path.abspath(path)
+    try:
+        st = os.stat(full)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such catalogue file") from None
+    key = (full, st.st_mtime_ns, st.st_size)
+    with _PATH_CACHE_LOCK:
+        hit = _PATH_CACHE.get(key)
+    if hit is not None:
+        return hit
+    cat = Catalog.load(path)
+    with _PATH_CACHE_LOCK:
+        for k in [k for k in _PATH_CACHE if k[0] == full]:
+            del _PATH_CACHE[k]
+        while len(_PATH_CACHE) >= _PATH_CACHE_SIZE:
+            del _PATH_CACHE[next(iter(_PATH_CACHE))]
+        _PATH_CACHE[key] = cat
+    return cat

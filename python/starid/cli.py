@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import sys
 import time
@@ -290,10 +291,11 @@ def _simulate(args: argparse.Namespace) -> int:
         drop_fraction=args.drop_fraction,
         mirrored=args.mirrored,
     )
-    with open(args.output, "w", encoding="utf-8") as f:
-        f.write("label,x,y,mag\n")
+    with open(args.output, "w", encoding="utf-8", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(["label", "x", "y", "mag"])
         for i, ((x, y), m) in enumerate(zip(frame.xy, frame.magnitudes)):
-            f.write(f"s{i},{x:.4f},{y:.4f},{m:.3f}\n")
+            w.writerow([f"s{i}", f"{x:.4f}", f"{y:.4f}", f"{m:.3f}"])
     truth = {
         "file": str(args.output),
         "seed": frame.seed,

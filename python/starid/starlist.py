@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import os
 from dataclasses import dataclass
 from typing import Optional, Union
@@ -51,16 +52,18 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
     (['A', 'B'], [[10.5, 20.0], [30.0, 40.25]])
     """
     path = os.fspath(path)
-    with open(path, encoding="utf-8-sig") as fh:
-        lines = [(n + 1, line.strip()) for n, line in enumerate(fh)]
+    with open(path, encoding="utf-8-sig", newline="") as fh:
+        text = fh.read()
+    lines = [(n + 1, line.strip()) for n, line in enumerate(text.splitlines())]
     rows = [(n, line) for n, line in lines if line and not line.startswith("#")]
     if not rows:
         raise ValueError(f"{path}: holds no centroids")
     comma = "," in rows[0][1]
 
     def split(line: str) -> list[str]:
-        parts = line.split(",") if comma else line.split()
-        return [p.strip().strip('"') for p in parts]
+        # CSV goes through the csv module: a quoted label may hold a comma ("Sirius, a CMa").
+        parts = next(csv.reader([line], skipinitialspace=True)) if comma else line.split()
+        return [p.strip() for p in parts]
 
     first = split(rows[0][1])
     cols: dict[str, int]

@@ -40,9 +40,20 @@ pub struct Catalog {
 impl Catalog {
     /// Catalogue from columns in degrees.
     ///
+    /// Right ascension may be any finite angle: it is read modulo 360° (−10° and 350° are the
+    /// same star) and reported in [0°, 360°). Declination must lie in [−90°, 90°].
+    ///
     /// # Errors
     /// `Catalog` when the columns differ in length, are empty, hold non-finite values or a
     /// declination outside [-90°, 90°], or repeat an id.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::Catalog;
+    /// let cat = Catalog::new(vec![1, 2], &[10.0, -10.0], &[0.0, 45.0], vec![2.0, 3.0]).unwrap();
+    /// assert_eq!(cat.len(), 2);
+    /// assert!((cat.ra_rad()[1].to_degrees() - 350.0).abs() < 1e-9);
+    /// ```
     pub fn new(ids: Vec<i64>, ra_deg: &[f64], dec_deg: &[f64], mag: Vec<f64>) -> Result<Self> {
         let n = ids.len();
         if ra_deg.len() != n || dec_deg.len() != n || mag.len() != n {
@@ -96,6 +107,58 @@ impl Catalog {
         Ok(Self::from_vectors(ids, vectors, mag))
     }
 
+    /// Catalogue from ICRS unit vectors: the exact inverse of [`Catalog::vectors`], used to
+    /// ship a catalogue between processes without rounding through degrees.
+    ///
+    /// # Errors
+    /// `Catalog` when the columns differ in length, are empty, a vector is not of unit length
+    /// (within 1e-9) or a magnitude is not finite, or an id repeats.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::Catalog;
+    /// let a = Catalog::new(vec![7, 9], &[10.0, 200.0], &[-5.0, 60.0], vec![1.0, 4.0]).unwrap();
+    /// let b = Catalog::from_unit_vectors(a.ids().to_vec(), a.vectors().to_vec(), a.mag().to_vec()).unwrap();
+    /// assert_eq!(a.ra_rad(), b.ra_rad());
+    /// ```
+    pub fn from_unit_vectors(
+        ids: Vec<i64>,
+        vectors: Vec<Vector3<f64>>,
+        mag: Vec<f64>,
+    ) -> Result<Self> {
+        let n = ids.len();
+        if vectors.len() != n || mag.len() != n {
+            return Err(Error::catalog(
+                None,
+                format!(
+                    "columns differ in length: {n} ids, {} vectors, {} mag",
+                    vectors.len(),
+                    mag.len()
+                ),
+            ));
+        }
+        if n == 0 {
+            return Err(Error::catalog(None, "the catalogue holds no stars"));
+        }
+        let mut seen = HashSet::with_capacity(n);
+        for i in 0..n {
+            let norm = vectors[i].norm();
+            if !norm.is_finite() || (norm - 1.0).abs() > 1e-9 || !mag[i].is_finite() {
+                return Err(Error::catalog(
+                    None,
+                    format!("star {} (row {i}) has a non-unit vector or a non-finite mag", ids[i]),
+                ));
+            }
+            if !seen.insert(ids[i]) {
+                return Err(Error::catalog(
+                    None,
+                    format!("id {} appears more than once", ids[i]),
+                ));
+            }
+        }
+        Ok(Self::from_vectors(ids, vectors, mag))
+    }
+
     fn from_vectors(ids: Vec<i64>, vectors: Vec<Vector3<f64>>, mag: Vec<f64>) -> Self {
         let (ra_rad, dec_rad): (Vec<f64>, Vec<f64>) = vectors.iter().map(unit_to_radec).unzip();
         let zones = ZoneIndex::new(&vectors, ZONE_HEIGHT_RAD);
@@ -120,88 +183,56 @@ impl Catalog {
     ///
     /// # Errors
     /// `Catalog { line }` for a malformed record, `Io` when reading fails.
-    pub fn from_table(reader: impl BufRead) -> Result<Self> {
-        let mut layout: Option<(Delimiter, [usize; 4], usize)> = None;
-        let (mut ids, mut ra, mut dec, mut mag) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        for (lineno, line) in reader.lines().enumerate() {
-            let lineno = lineno + 1;
-            let line = line?;
-            let line = line.trim_start_matches('\u{feff}').trim();
-            if line.is_empty() || line.starts_with('#') || line.starts_with('%') {
-                continue;
-            }
-            let (delim, cols, min_fields) = match layout {
-                Some(l) => l,
-                None => {
-                    let delim = Delimiter::detect(line);
-                    let fields = delim.split(line);
-                    let l = if fields.iter().take(4).all(|f| f.parse::<f64>().is_ok()) {
-                        if fields.len() < 4 {
-                            return Err(Error::catalog(
-                                Some(lineno),
-                                format!(
-                                    "a headerless table needs 4 columns (id ra_deg dec_deg mag), found {}",
-                                    fields.len()
-                                ),
-                            ));
-                        }
-                        (delim, [0, 1, 2, 3], 4)
-                    } else {
-                        let cols =
-                            header_columns(&fields).map_err(|m| Error::catalog(Some(lineno), m))?;
-                        layout = Some((delim, cols, cols.iter().max().unwrap() + 1));
-                        continue;
-                    };
-                    layout = Some(l);
-                    l
+    pub fn from_table(mut reader: impl BufRead) -> Result<Self> {
+        let mut text = String::new();
+        reader.read_to_string(&mut text)?;
+        let text = text.trim_start_matches('\u{feff}');
+        let first = text
+            .lines()
+            .map(str::trim)
+            .find(|l| !is_comment_or_blank(l))
+            .ok_or_else(|| Error::catalog(None, "the table holds no stars"))?;
+        let mut table = TableBuilder::default();
+        match Delimiter::detect(first) {
+            // Whitespace-separated text has no quoting: runs of blanks separate fields.
+            Delimiter::Whitespace => {
+                for (k, line) in text.lines().enumerate() {
+                    let line = line.trim();
+                    if !is_comment_or_blank(line) {
+                        let fields: Vec<&str> = line.split_whitespace().collect();
+                        table.record(k + 1, &fields)?;
+                    }
                 }
-            };
-            let fields = delim.split(line);
-            if fields.len() < min_fields {
-                return Err(Error::catalog(
-                    Some(lineno),
-                    format!(
-                        "expected at least {min_fields} fields, found {}",
-                        fields.len()
-                    ),
-                ));
             }
-            let num = |k: usize, name: &str| -> Result<f64> {
-                fields[cols[k]].parse::<f64>().map_err(|_| {
-                    Error::catalog(
-                        Some(lineno),
-                        format!("{name} {:?} is not a number", fields[cols[k]]),
-                    )
-                })
-            };
-            let id = parse_id(fields[cols[0]]).ok_or_else(|| {
-                Error::catalog(
-                    Some(lineno),
-                    format!("id {:?} is not an integer", fields[cols[0]]),
-                )
-            })?;
-            ids.push(id);
-            ra.push(num(1, "ra_deg")?);
-            dec.push(num(2, "dec_deg")?);
-            mag.push(num(3, "mag")?);
-            let last = ra.len() - 1;
-            if !ra[last].is_finite() || !dec[last].is_finite() || !mag[last].is_finite() {
-                return Err(Error::catalog(
-                    Some(lineno),
-                    "ra_deg, dec_deg and mag must be finite",
-                ));
-            }
-            if !(-90.0..=90.0).contains(&dec[last]) {
-                return Err(Error::catalog(
-                    Some(lineno),
-                    format!("dec_deg {} is outside [-90, 90]", dec[last]),
-                ));
+            // CSV, TSV and semicolon tables go through the csv crate: quoted fields may hold
+            // the delimiter ("Sirius, a CMa") and quotes.
+            Delimiter::Byte(delimiter) => {
+                let mut rdr = csv::ReaderBuilder::new()
+                    .delimiter(delimiter)
+                    .has_headers(false)
+                    .flexible(true)
+                    .trim(csv::Trim::All)
+                    .comment(Some(b'#'))
+                    .from_reader(text.as_bytes());
+                let mut record = csv::StringRecord::new();
+                loop {
+                    let more = rdr.read_record(&mut record).map_err(|e| {
+                        let line = e.position().map(|p| p.line() as usize);
+                        Error::catalog(line, format!("malformed record: {e}"))
+                    })?;
+                    if !more {
+                        break;
+                    }
+                    let line = record.position().map_or(0, |p| p.line() as usize);
+                    let fields: Vec<&str> = record.iter().collect();
+                    let blank = fields.iter().all(|f| f.is_empty());
+                    if !blank && !fields[0].starts_with('%') {
+                        table.record(line, &fields)?;
+                    }
+                }
             }
         }
-        if ids.is_empty() {
-            return Err(Error::catalog(None, "the table holds no stars"));
-        }
-        Self::new(ids, &ra, &dec, mag)
+        table.finish()
     }
 
     /// Read a star table from a file (see [`Catalog::from_table`]).
@@ -260,12 +291,7 @@ impl Catalog {
             if hp > mag_limit {
                 continue;
             }
-            let id = parse_id(f[0]).ok_or_else(|| {
-                Error::catalog(
-                    Some(lineno + 1),
-                    format!("HIP {:?} is not an integer", f[0]),
-                )
-            })?;
+            let id = parse_id(f[0]).map_err(|m| Error::catalog(Some(lineno + 1), format!("HIP: {m}")))?;
             let (ra, dec, pm_ra, pm_dec) = (num(4)?, num(5)?, num(7)?, num(8)?);
             let p = radec_to_unit(ra, dec);
             let (sr, cr) = ra.sin_cos();
@@ -426,35 +452,96 @@ impl Catalog {
     }
 }
 
-#[derive(Debug, Clone, Copy)]
+fn is_comment_or_blank(line: &str) -> bool {
+    line.is_empty() || line.starts_with('#') || line.starts_with('%')
+}
+
+#[derive(Clone, Copy)]
 enum Delimiter {
-    Comma,
-    Tab,
-    Semicolon,
+    Byte(u8),
     Whitespace,
 }
 
 impl Delimiter {
+    /// The delimiter of a table from its first line: comma, else tab, else semicolon, else blanks.
     fn detect(line: &str) -> Self {
-        if line.contains(',') {
-            Self::Comma
-        } else if line.contains('\t') {
-            Self::Tab
-        } else if line.contains(';') {
-            Self::Semicolon
-        } else {
-            Self::Whitespace
+        [b',', b'\t', b';']
+            .into_iter()
+            .find(|&d| line.as_bytes().contains(&d))
+            .map_or(Self::Whitespace, Self::Byte)
+    }
+}
+
+/// Collects the records of a star table once its layout (header or not) is known.
+#[derive(Default)]
+struct TableBuilder {
+    /// Column of id, ra, dec and mag, and the fewest fields a record may have.
+    layout: Option<([usize; 4], usize)>,
+    ids: Vec<i64>,
+    ra: Vec<f64>,
+    dec: Vec<f64>,
+    mag: Vec<f64>,
+}
+
+impl TableBuilder {
+    fn record(&mut self, lineno: usize, fields: &[&str]) -> Result<()> {
+        let (cols, min_fields) = match self.layout {
+            Some(l) => l,
+            None if fields.iter().take(4).all(|f| f.parse::<f64>().is_ok()) => {
+                if fields.len() < 4 {
+                    return Err(Error::catalog(
+                        Some(lineno),
+                        format!(
+                            "a headerless table needs 4 columns (id ra_deg dec_deg mag), found {}",
+                            fields.len()
+                        ),
+                    ));
+                }
+                *self.layout.insert(([0, 1, 2, 3], 4))
+            }
+            None => {
+                let cols = header_columns(fields).map_err(|m| Error::catalog(Some(lineno), m))?;
+                self.layout = Some((cols, cols.iter().max().map_or(0, |m| m + 1)));
+                return Ok(());
+            }
+        };
+        if fields.len() < min_fields {
+            return Err(Error::catalog(
+                Some(lineno),
+                format!("expected at least {min_fields} fields, found {}", fields.len()),
+            ));
         }
+        let field = |k: usize| fields[cols[k]].trim().trim_matches('"').trim();
+        let num = |k: usize, name: &str| -> Result<f64> {
+            let v = field(k).parse::<f64>().map_err(|_| {
+                Error::catalog(Some(lineno), format!("{name} {:?} is not a number", field(k)))
+            })?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(Error::catalog(Some(lineno), format!("{name} must be finite, got {v}")))
+            }
+        };
+        let id = parse_id(field(0)).map_err(|m| Error::catalog(Some(lineno), m))?;
+        let (ra, dec, mag) = (num(1, "ra_deg")?, num(2, "dec_deg")?, num(3, "mag")?);
+        if !(-90.0..=90.0).contains(&dec) {
+            return Err(Error::catalog(
+                Some(lineno),
+                format!("dec_deg {dec} is outside [-90, 90]"),
+            ));
+        }
+        self.ids.push(id);
+        self.ra.push(ra);
+        self.dec.push(dec);
+        self.mag.push(mag);
+        Ok(())
     }
 
-    fn split<'a>(&self, line: &'a str) -> Vec<&'a str> {
-        let clean = |s: &'a str| s.trim().trim_matches('"').trim();
-        match self {
-            Self::Comma => line.split(',').map(clean).collect(),
-            Self::Tab => line.split('\t').map(clean).collect(),
-            Self::Semicolon => line.split(';').map(clean).collect(),
-            Self::Whitespace => line.split_whitespace().map(clean).collect(),
+    fn finish(self) -> Result<Catalog> {
+        if self.ids.is_empty() {
+            return Err(Error::catalog(None, "the table holds no stars"));
         }
+        Catalog::new(self.ids, &self.ra, &self.dec, self.mag)
     }
 }
 
@@ -518,14 +605,26 @@ fn header_columns(fields: &[&str]) -> std::result::Result<[usize; 4], String> {
     }
 }
 
-fn parse_id(s: &str) -> Option<i64> {
+/// An id: an integer that fits in 64 signed bits, or a float with an integer value that a
+/// float represents exactly (below 2^53; MATLAB and spreadsheets write "12.0", "1.2e1").
+fn parse_id(s: &str) -> std::result::Result<i64, String> {
     if let Ok(v) = s.parse::<i64>() {
-        return Some(v);
+        return Ok(v);
     }
-    // MATLAB and spreadsheets write integers as floats ("12.0", "1.2e1").
-    let v = s.parse::<f64>().ok()?;
-    (v.is_finite() && v.fract() == 0.0 && v.abs() < 9.0e15).then_some(v as i64)
+    if s.parse::<i128>().is_ok() {
+        return Err(format!("id {s:?} does not fit in a 64-bit signed integer"));
+    }
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v.fract() == 0.0 && v.abs() <= MAX_EXACT_FLOAT_ID => Ok(v as i64),
+        Ok(v) if v.is_finite() && v.fract() == 0.0 => Err(format!(
+            "id {s:?} is written as a float too large to hold an integer exactly (above 2^53)"
+        )),
+        _ => Err(format!("id {s:?} is not an integer")),
+    }
 }
+
+/// The largest integer every larger float cannot represent exactly: 2^53.
+pub const MAX_EXACT_FLOAT_ID: f64 = 9_007_199_254_740_992.0;
 
 #[cfg(test)]
 mod tests {
@@ -559,6 +658,40 @@ mod tests {
         assert_eq!(c.ids(), &[5, 7]);
         assert!((c.ra_rad()[1].to_degrees() - 350.0).abs() < 1e-9);
         assert_eq!(c.mag(), &[3.1, 5.0]);
+    }
+
+    #[test]
+    fn quoted_fields_may_hold_the_delimiter() {
+        let text = "id,name,ra_deg,dec_deg,mag\n32349,\"Sirius, a CMa\",101.287,-16.716,-1.46\n# note\n\n% note\n7,\"b\",1,2,3\n";
+        let c = Catalog::from_table(text.as_bytes()).unwrap();
+        assert_eq!(c.ids(), &[32349, 7]);
+        assert!((c.mag()[0] + 1.46).abs() < 1e-12);
+        let e = Catalog::from_table("1,0,0,1\n2,\"x,0,1\n".as_bytes()).unwrap_err();
+        assert!(matches!(e.kind(), crate::ErrorKind::Catalog { .. }), "{e}");
+    }
+
+    #[test]
+    fn ids_beyond_64_bits_or_float_precision_are_refused() {
+        for (text, word) in [
+            ("9223372036854775813,0,0,1\n", "64-bit"),
+            ("9.223372036854775813e18,0,0,1\n", "2^53"),
+            ("1.5,0,0,1\n", "not an integer"),
+        ] {
+            let e = Catalog::from_table(text.as_bytes()).unwrap_err();
+            assert!(e.to_string().contains(word), "{e}");
+            assert_eq!(e.kind(), &crate::ErrorKind::Catalog { line: Some(1) });
+        }
+        let c = Catalog::from_table("9223372036854775807,0,0,1\n-12.0,1,1,1\n".as_bytes()).unwrap();
+        assert_eq!(c.ids(), &[i64::MAX, -12]);
+    }
+
+    #[test]
+    fn ra_is_read_modulo_360() {
+        let c = Catalog::from_table("1,-10,0,1\n2,370,0,1\n3,720,0,1\n".as_bytes()).unwrap();
+        let ra: Vec<f64> = c.ra_rad().iter().map(|r| r.to_degrees()).collect();
+        let near = |a: f64, b: f64| ((a - b + 180.0).rem_euclid(360.0) - 180.0).abs() < 1e-9;
+        assert!(near(ra[0], 350.0) && near(ra[1], 10.0) && near(ra[2], 0.0), "{ra:?}");
+        assert!(ra.iter().all(|r| (0.0..360.0).contains(r)));
     }
 
     #[test]

@@ -89,6 +89,32 @@ impl PyCatalog {
         ))
     }
 
+    /// Catalogue from ICRS unit vectors (N, 3): the exact inverse of `unit_vectors`, for pickling.
+    #[staticmethod]
+    fn from_unit_vectors(
+        ids: PyReadonlyArray1<'_, i64>,
+        vectors: numpy::PyReadonlyArray2<'_, f64>,
+        mag: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let ids: Vec<i64> = ids.as_array().iter().copied().collect();
+        let v = vectors.as_array();
+        if v.ncols() != 3 {
+            return Err(crate::errors::InvalidInputError::new_err(format!(
+                "vectors must have shape (N, 3), got {:?}",
+                v.shape()
+            )));
+        }
+        let vectors = v
+            .rows()
+            .into_iter()
+            .map(|r| nalgebra::Vector3::new(r[0], r[1], r[2]))
+            .collect();
+        let mag: Vec<f64> = mag.as_array().iter().copied().collect();
+        Ok(Self::wrap(
+            Catalog::from_unit_vectors(ids, vectors, mag).map_err(PyStaridError)?,
+        ))
+    }
+
     /// Read a star table (CSV, TSV or whitespace; with or without a header).
     #[staticmethod]
     fn from_table_path(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
