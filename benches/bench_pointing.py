@@ -46,7 +46,7 @@ def sky(off: np.ndarray, f: float, rot: np.ndarray) -> np.ndarray:
 
 
 def exact(trials: int, rng: np.random.Generator) -> None:
-    f = sp.focal_from_fov(12.0, 512)
+    f = starid.Camera((512, 512), 12.0).focal_length_px
     worst = {"known": 0.0, "unknown": 0.0, "focal": 0.0}
     times = {"known": [], "unknown": []}
     found = 0
@@ -92,7 +92,7 @@ def monte_carlo() -> None:
 
 
 def refinement(cat: starid.Catalog, frames: int) -> None:
-    f = sp.focal_from_fov(12.0, 512)
+    f = starid.Camera((512, 512), 12.0).focal_length_px
     row_of = {int(i): k for k, i in enumerate(cat.ids)}
     for wrong in (0.6, 1.4):
         ok = 0
@@ -138,7 +138,7 @@ def unknown_fov(cat: starid.Catalog, frames: int) -> None:
             ok4 += fr.n_real >= 4
             ids += int((res.ids >= 0).sum())
             wrong += int(((res.ids >= 0) & (res.ids != fr.true_ids)).sum())
-            ferr.append(abs(res.focal_px / sp.focal_from_fov(fov, 1024) - 1))
+            ferr.append(abs(res.focal_px / starid.Camera((1024, 1024), fov).focal_length_px - 1))
     ferr_a = np.array(ferr)
     print(
         f"unknown FOV 8-25 deg, 1024 px, 0.2 px, {frames} frames ({cat!r}): identified {100 * ok / frames:.2f} % "

@@ -128,3 +128,88 @@ def test_results_are_immutable_and_pickle() -> None:
     assert res.ok and not np.isnan(res.focal_sigma_px)
     with pytest.raises(ValueError, match="status"):
         starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 6, 0, "pyramid", None))
+
+
+def test_camera_object_matches_keywords_and_round_trips(bundled: starid.Catalog) -> None:
+    import pickle
+
+    cam = starid.Camera((512, 512), 12.0)
+    assert cam.image_size == (512.0, 512.0) and cam.principal_point == (256.0, 256.0)
+    assert cam.fov_deg == pytest.approx(12.0) and cam.k1 == 0.0
+    assert pickle.loads(pickle.dumps(cam)) == cam
+    frame = starid.simulate(bundled, 12.0, (512, 512), seed=21, noise_px=0.2)
+    a = starid.identify(frame.xy, bundled, camera=cam)
+    b = starid.identify(frame.xy, bundled, 12.0, (512, 512))
+    assert a.ok and np.array_equal(a.ids, b.ids) and a.quaternion == pytest.approx(b.quaternion, abs=0)
+    with pytest.raises(starid.InvalidInputError, match="not both"):
+        starid.identify(frame.xy, bundled, 12.0, (512, 512), camera=cam)
+    with pytest.raises(starid.InvalidInputError, match="exactly one"):
+        starid.Camera((512, 512), 12.0, focal_length_px=2000.0)
+    with pytest.raises(starid.InvalidInputError, match="k1"):
+        starid.Camera((512, 512), 12.0, k1=float("nan"))
+
+
+def test_camera_projection_inverts_with_distortion_and_offset_centre() -> None:
+    cam = starid.Camera((1024, 768), focal_length_px=1500.0, principal_point=(530.0, 370.0), k1=-0.05)
+    xy = np.array([[0.0, 0.0], [1023.0, 767.0], [530.0, 370.0], [100.0, 700.0]])
+    v = cam.unproject(xy)
+    assert np.allclose(np.linalg.norm(v, axis=1), 1.0)
+    assert np.allclose(cam.project(v), xy, atol=1e-9)
+    assert np.allclose(v[2], [0, 0, 1])
+    assert np.isnan(cam.project(np.array([[0.0, 0.0, -1.0]]))).all()
+
+
+def test_identify_with_a_distorted_off_centre_camera(contest: starid.Catalog) -> None:
+    # Frames imaged through k1 and an offset principal point identify with the same camera,
+    # and the wrong (pinhole) camera never gives a wrong id.
+    truth = starid.Camera((1024, 1024), 20.0, principal_point=(540.0, 500.0), k1=-0.08)
+    ok = 0
+    for seed in range(20):
+        frame = starid.simulate(contest, 20.0, (1024, 1024), seed=seed, noise_px=0.2)
+        # Re-image the simulated stars through the true camera.
+        pinhole = starid.Camera((1024, 1024), 20.0)
+        xy = truth.project(pinhole.unproject(frame.xy, mirrored=frame.mirrored))
+        if frame.mirrored:
+            xy[:, 0] = 1024 - xy[:, 0]
+        keep = (xy[:, 0] >= 0) & (xy[:, 0] < 1024) & (xy[:, 1] >= 0) & (xy[:, 1] < 1024)
+        res = starid.identify(xy[keep], contest, camera=truth, brightness_order=False)
+        true_ids = frame.true_ids[keep]
+        assert not np.any((res.ids >= 0) & (res.ids != true_ids))
+        ok += res.ok
+    assert ok >= 19
+
+
+def test_identify_config_is_one_surface() -> None:
+    import pickle
+
+    cfg = starid.IdentifyConfig(min_matches=5, method="voting", timeout_s=2.0)
+    names = starid.IdentifyConfig.names()
+    assert set(cfg.to_dict()) == set(names)
+    for n in names:
+        assert getattr(cfg, n) == cfg.to_dict()[n]
+    assert cfg.min_matches == 5 and cfg.max_pairs_visited == starid.IdentifyConfig().max_pairs_visited
+    assert pickle.loads(pickle.dumps(cfg)) == cfg
+    assert cfg.replace(min_matches=6).min_matches == 6 and cfg.replace().method == "voting"
+    assert "min_matches=5" in repr(cfg)
+    with pytest.raises(starid.InvalidInputError, match="min_matches"):
+        starid.IdentifyConfig(min_matches=-1)
+    with pytest.raises(starid.InvalidInputError, match="max_pairs_visited"):
+        starid.IdentifyConfig(max_pairs_visited=2.5)
+    with pytest.raises(TypeError, match="settings are"):
+        starid.identify(np.zeros((0, 2)), fov_deg=12.0, image_size=(512, 512), min_mathces=4)
+
+
+def test_identify_many_takes_every_identify_argument(contest: starid.Catalog) -> None:
+    import inspect
+
+    one = inspect.signature(starid.identify).parameters
+    many = inspect.signature(starid.identify_many).parameters
+    assert set(one) - {"xy"} <= set(many)
+    frames = [starid.simulate(contest, 17.0, (1024, 1024), seed=s, noise_px=0.2) for s in range(3)]
+    res = starid.identify_many([f.xy for f in frames] + [[[np.nan, 1.0]]], contest, image_size=(1024, 1024), fov_range_deg=(14, 20))
+    for f, r in zip(frames, res):
+        assert r.ok and r.fov_deg == pytest.approx(17.0, abs=0.05)
+        assert np.array_equal(r.ids, f.true_ids)
+    assert res[3].status == "invalid_input" and res[3].message.startswith("frame 3")
+    single = [starid.identify(f.xy, contest, image_size=(1024, 1024), fov_range_deg=(14, 20)) for f in frames]
+    assert [r.focal_px for r in single] == [r.focal_px for r in res[:3]]

@@ -14,7 +14,7 @@ import starid.pointing as sp
 from starid.cli import main
 
 ARCSEC = math.radians(1 / 3600)
-F12 = sp.focal_from_fov(12.0, 512)
+F12 = starid.Camera((512, 512), 12.0).focal_length_px
 
 
 def _unit(ra: np.ndarray, dec: np.ndarray) -> np.ndarray:
@@ -108,7 +108,7 @@ def test_fit_pointing_converges_from_a_40_percent_fov_error(bundled: starid.Cata
 def test_refine_fits_principal_point_and_distortion(bundled: starid.Catalog) -> None:
     """A frame made with a shifted principal point and barrel distortion is refined back."""
     frame = starid.simulate(bundled, 14.0, (1024, 1024), seed=17, noise_px=0.0)
-    f = sp.focal_from_fov(14.0, 1024)
+    f = starid.Camera((1024, 1024), 14.0).focal_length_px
     cx, cy, k1 = 518.0, 509.0, -0.05
     u = (frame.xy - 512.0) / f
     g = 1 + k1 * (u**2).sum(axis=1, keepdims=True)
@@ -138,7 +138,7 @@ def test_unknown_fov_identification(bundled: starid.Catalog) -> None:
         ok += 1
         wrong += int(((res.ids >= 0) & (res.ids != frame.true_ids)).sum())
         assert res.mirrored == frame.mirrored
-        assert abs(res.focal_px / sp.focal_from_fov(fov, 1024) - 1) < 1e-3
+        assert abs(res.focal_px / starid.Camera((1024, 1024), fov).focal_length_px - 1) < 1e-3
         assert res.focal_sigma_px > 0
     assert wrong == 0
     assert ok >= tried - 1
@@ -204,7 +204,7 @@ def test_simulated_radial_distortion_is_recovered(bundled: starid.Catalog) -> No
     assert res.ok
     fit = sp.refine(res, frame.xy, bundled, (1024, 1024), fit_k1=True)
     assert fit.k1 == pytest.approx(-0.08, abs=1e-9)
-    assert fit.focal_px == pytest.approx(sp.focal_from_fov(16.0, 1024), rel=1e-9)
+    assert fit.focal_px == pytest.approx(starid.Camera((1024, 1024), 16.0).focal_length_px, rel=1e-9)
     with pytest.raises(ValueError, match="radial_k1"):
         starid.simulate(bundled, 16.0, (1024, 1024), seed=5, radial_k1=float("nan"))
 

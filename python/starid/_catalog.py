@@ -266,9 +266,9 @@ class Catalog:
         there is no such index), ``max_angle_deg``, ``memory_bytes`` (both indexes) and
         ``build_time_s`` (both indexes).
         """
-        from ._identify import _camera_diagonal_deg
+        from ._identify import _camera
 
-        return dict(self._native.index_info(_camera_diagonal_deg(fov_deg, image_size)))
+        return dict(self._native.index_info(_camera(None, fov_deg, image_size).diagonal_fov_deg))
 
     def to_csv(self, path: PathLike) -> None:
         """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag``."""
@@ -316,10 +316,10 @@ def _id_column(ids: npt.ArrayLike) -> npt.NDArray[np.int64]:
             raise CatalogError(f"catalogue ids must be integers: {e}") from None
         if not np.all(np.isfinite(as_float)) or not np.all(as_float == np.round(as_float)):
             raise CatalogError("catalogue ids must be integers")
-        big = np.abs(as_float) > _EXACT_FLOAT_LIMIT
-        if np.any(big):
+        too_big = np.abs(as_float) > _EXACT_FLOAT_LIMIT
+        if np.any(too_big):
             raise CatalogError(
-                f"catalogue id {as_float[big][0]:.17g} is a float above 2**53, which holds no exact "
+                f"catalogue id {as_float[too_big][0]:.17g} is a float above 2**53, which holds no exact "
                 "integer (beyond int64 or rounded): give ids as integers"
             )
         arr = as_float

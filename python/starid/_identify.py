@@ -108,12 +108,6 @@ def _fov(fov_deg: Any) -> float:
     return fov
 
 
-def _camera_diagonal_deg(fov_deg: float, image_size: tuple[float, float]) -> float:
-    w, h = _image_size(image_size)
-    f = 0.5 * w / math.tan(math.radians(_fov(fov_deg)) / 2)
-    return math.degrees(2 * math.atan(0.5 * math.hypot(w, h) / f))
-
-
 def _xy(xy: Any, name: str = "xy") -> npt.NDArray[np.float64]:
     try:
         a = np.ascontiguousarray(xy, dtype=np.float64)
@@ -138,26 +132,32 @@ def _magnitudes(magnitudes: Any, n: int) -> Optional[npt.NDArray[np.float64]]:
     return m
 
 
-def _count(name: str, value: Any) -> int:
-    """A non-negative whole number that fits the core's counters, or a ValueError naming it."""
-    try:
-        v = int(value)
-    except (TypeError, ValueError, OverflowError) as e:
-        raise InvalidInputError(f"{name} must be a whole number, got {value!r}") from e
-    if v != value or not 0 <= v <= 2**32:
-        raise InvalidInputError(f"{name} must be a whole number in [0, 2**32], got {value!r}")
-    return v
+#: The identification settings (keywords of :func:`identify`), written once, in the core.
+IdentifyConfig = _starid.IdentifyConfig
+Camera = _starid.Camera
+
+_DEFAULT_CONFIG = IdentifyConfig()
+_CAMERAS: dict[Any, Any] = {}
 
 
-def _config(*args: Any) -> Any:
-    """The native settings for ``identify``'s keyword values, checked once per distinct set."""
-    # Equal values of other types (True and 1, 4 and 4.0) mean the same setting.
-    key = args
+def _config(config: Any, settings: dict[str, Any]) -> Any:
+    """The native settings: ``config`` (an IdentifyConfig or None) with ``settings`` applied,
+    each distinct set checked once by the core and cached."""
+    if config is not None and not isinstance(config, IdentifyConfig):
+        raise InvalidInputError(f"config must be a starid.IdentifyConfig, got {type(config).__name__}")
+    if not settings:
+        return _DEFAULT_CONFIG if config is None else config
+    if config is not None:
+        return config.replace(**settings)
     try:
+        key = tuple(settings.items())
         return _CONFIGS[key]
     except (KeyError, TypeError):
         pass
-    cfg = _check_config(*args)
+    try:
+        cfg = IdentifyConfig(**settings)
+    except TypeError as e:
+        raise TypeError(f"{e}; the settings are {', '.join(IdentifyConfig.names())}") from None
     if len(_CONFIGS) < 256:
         try:
             _CONFIGS[key] = cfg
@@ -166,64 +166,29 @@ def _config(*args: Any) -> Any:
     return cfg
 
 
-def _check_config(
-    centroid_sigma_px: Optional[float],
-    max_false_match_prob: float,
-    min_matches: int,
-    max_search_stars: int,
-    max_hypotheses: int,
-    allow_mirrored: bool,
-    timeout_s: Optional[float] = None,
-    method: str = "auto",
-    mag_offset: Optional[float] = 0.0,
-    mag_tolerance: float = 0.5,
-    brightness_order: bool = True,
-) -> Any:
-    if not isinstance(method, str):
-        raise InvalidInputError(f"method must be a string (one of {', '.join(METHODS)}), got {method!r}")
-    return _native_config(
-        None if centroid_sigma_px is None else float(centroid_sigma_px),
-        float(max_false_match_prob),
-        _count("min_matches", min_matches),
-        _count("max_search_stars", max_search_stars),
-        _count("max_hypotheses", max_hypotheses),
-        bool(allow_mirrored),
-        None if timeout_s is None else float(timeout_s),
-        method,
-        None if mag_offset is None else float(mag_offset),
-        float(mag_tolerance),
-        bool(brightness_order),
-    )
-
-
-@functools.lru_cache(maxsize=64)
-def _native_config(
-    centroid_sigma_px: Optional[float],
-    max_false_match_prob: float,
-    min_matches: int,
-    max_search_stars: int,
-    max_hypotheses: int,
-    allow_mirrored: bool,
-    timeout_s: Optional[float],
-    method: str,
-    mag_offset: Optional[float],
-    mag_tolerance: float,
-    brightness_order: bool,
-) -> Any:
-    """The native settings object, cached: the same settings are reused call after call."""
-    return _starid.IdentifyConfig(
-        method=method,
-        mag_offset=mag_offset,
-        mag_tolerance=mag_tolerance,
-        brightness_order=brightness_order,
-        centroid_sigma_px=centroid_sigma_px,
-        max_false_match_prob=max_false_match_prob,
-        min_matches=min_matches,
-        max_search_stars=max_search_stars,
-        max_hypotheses=max_hypotheses,
-        allow_mirrored=allow_mirrored,
-        timeout_s=timeout_s,
-    )
+def _camera(camera: Any, fov_deg: Any, image_size: Any) -> Any:
+    """The camera of a call: ``camera``, or one made from ``fov_deg`` and ``image_size``
+    (cached per distinct pair); None when the field of view is unknown."""
+    if camera is not None:
+        if not isinstance(camera, Camera):
+            raise InvalidInputError(f"camera must be a starid.Camera, got {type(camera).__name__}")
+        if fov_deg is not None or image_size is not None:
+            raise InvalidInputError("give camera=, or fov_deg and image_size, not both")
+        return camera
+    if fov_deg is None:
+        return None
+    key = (fov_deg, image_size)
+    try:
+        return _CAMERAS[key]
+    except (KeyError, TypeError):
+        pass
+    cam = Camera(_image_size(image_size), _fov(fov_deg))
+    if len(_CAMERAS) < 256:
+        try:
+            _CAMERAS[key] = cam
+        except TypeError:
+            pass
+    return cam
 
 
 def identify(
@@ -232,19 +197,11 @@ def identify(
     fov_deg: Optional[float] = None,
     image_size: Optional[tuple[float, float]] = None,
     *,
+    camera: Optional[Any] = None,
     fov_range_deg: Optional[tuple[float, float]] = None,
     magnitudes: Optional[npt.ArrayLike] = None,
-    centroid_sigma_px: Optional[float] = None,
-    max_false_match_prob: float = 1e-3,
-    min_matches: int = 4,
-    max_search_stars: int = 24,
-    max_hypotheses: int = 50_000,
-    allow_mirrored: bool = True,
-    timeout_s: Optional[float] = None,
-    method: str = "auto",
-    mag_offset: Optional[float] = 0.0,
-    mag_tolerance: float = 0.5,
-    brightness_order: bool = True,
+    config: Optional[Any] = None,
+    **settings: Any,
 ) -> Identification:
     """Identify the stars of one frame (lost in space: no prior attitude).
 
@@ -260,6 +217,9 @@ def identify(
         and ``focal_sigma_px`` on the result).
     image_size : (width_px, height_px)
         Sensor size; the optical axis meets it at ``(width/2, height/2)``.
+    camera : Camera, optional
+        The camera as one object (size, focal length, principal point, distortion ``k1``),
+        instead of ``fov_deg`` and ``image_size``.
     fov_range_deg : (lo, hi), optional
         Range of the unknown field of view (default :data:`DEFAULT_FOV_RANGE_DEG`, 8 to 25
         degrees); only without ``fov_deg``. The pair index is built for the widest field.
@@ -269,6 +229,11 @@ def identify(
         which is fast), and a centroid more than 1 mag (or 5 robust sigma) brighter than its
         catalogue star, after the frame's fitted offset, is left unidentified: usually a false
         star on the spot of a star too faint to be seen.
+    config : IdentifyConfig, optional
+        Settings as one object; keywords below override them.
+    **settings
+        The settings of :class:`IdentifyConfig` (defaults from the core):
+
     centroid_sigma_px : float, optional
         Centroid noise (1 sigma per axis). By default the search adapts: tight tolerances
         first (0.2 px), then 0.7 px, then 2.5 px.
@@ -281,6 +246,9 @@ def identify(
         Centroids (brightest first) used to form search triangles; all are verified.
     max_hypotheses : int
         Give up after testing this many catalogue triangles.
+    max_pairs_visited : int
+        Give up after this much search work (catalogue pairs read and nearest-star look-ups):
+        the bound on the time of a frame that cannot be identified.
     allow_mirrored : bool
         Also search mirrored frames; the result says which handedness was found.
     timeout_s : float, optional
@@ -338,29 +306,17 @@ def identify(
     (True, 17.3)
     """
     cat = resolve_catalog(catalog)
-    w, h = _image_size(image_size)
+    cam = _camera(camera, fov_deg, image_size)
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
-    cfg = _config(
-        centroid_sigma_px,
-        max_false_match_prob,
-        min_matches,
-        max_search_stars,
-        max_hypotheses,
-        allow_mirrored,
-        timeout_s,
-        method,
-        mag_offset,
-        mag_tolerance,
-        brightness_order,
-    )
-    if fov_deg is None:
+    cfg = _config(config, settings)
+    if cam is None:
+        w, h = _image_size(image_size)
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
         return _starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg)
     if fov_range_deg is not None:
         raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
-    fov = _fov(fov_deg)
-    return _starid.identify(cat._native, a, m, w, h, fov, cfg)
+    return _starid.identify(cat._native, a, m, cam, cfg)
 
 
 def identify_many(
@@ -369,19 +325,12 @@ def identify_many(
     fov_deg: Optional[float] = None,
     image_size: Optional[tuple[float, float]] = None,
     *,
+    camera: Optional[Any] = None,
+    fov_range_deg: Optional[tuple[float, float]] = None,
     magnitudes: Optional[Sequence[Optional[npt.ArrayLike]]] = None,
     threads: Optional[int] = None,
-    centroid_sigma_px: Optional[float] = None,
-    max_false_match_prob: float = 1e-3,
-    min_matches: int = 4,
-    max_search_stars: int = 24,
-    max_hypotheses: int = 50_000,
-    allow_mirrored: bool = True,
-    timeout_s: Optional[float] = None,
-    method: str = "auto",
-    mag_offset: Optional[float] = 0.0,
-    mag_tolerance: float = 0.5,
-    brightness_order: bool = True,
+    config: Optional[Any] = None,
+    **settings: Any,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
 
@@ -389,7 +338,8 @@ def identify_many(
     batch: its result has status ``"invalid_input"`` and the reason, naming the frame, in
     ``message``. Ctrl-C stops the batch within a frame's time and raises KeyboardInterrupt.
 
-    Arguments as :func:`identify`; ``frames`` is a sequence of (N_i, 2) centroid arrays and
+    Arguments as :func:`identify` (every one of them, ``fov_range_deg`` and the settings
+    included); ``frames`` is a sequence of (N_i, 2) centroid arrays and
     ``magnitudes`` an optional sequence of per-frame magnitude arrays (or None entries).
     ``threads`` limits the worker threads (None: all cores); ``timeout_s`` applies to each
     frame. Results come in input order and
@@ -403,8 +353,12 @@ def identify_many(
     [True, True, True, True]
     """
     cat = resolve_catalog(catalog)
-    w, h = _image_size(image_size)
-    fov = _fov(fov_deg)
+    cam = _camera(camera, fov_deg, image_size)
+    if cam is None:
+        w, h = _image_size(image_size)
+        lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
+    elif fov_range_deg is not None:
+        raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
     # One malformed frame does not stop the batch: it gets status "invalid_input" and the
     # reason in ``message``; the others are identified as usual.
     if magnitudes is not None and len(magnitudes) != len(frames):
@@ -424,22 +378,11 @@ def identify_many(
     mags = None if magnitudes is None else mags_or_none
     if threads is not None and int(threads) < 1:
         raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
-    cfg = _config(
-        centroid_sigma_px,
-        max_false_match_prob,
-        min_matches,
-        max_search_stars,
-        max_hypotheses,
-        allow_mirrored,
-        timeout_s,
-        method,
-        mag_offset,
-        mag_tolerance,
-        brightness_order,
-    )
-    results: list[Identification] = _starid.identify_many(
-        cat._native, xys, mags, w, h, fov, cfg, None if threads is None else int(threads)
-    )
+    cfg = _config(config, settings)
+    if cam is None:
+        results = _unknown_fov_batch(cat, xys, mags_or_none, (w, h), (lo, hi), cfg, threads, bad)
+    else:
+        results = _starid.identify_many(cat._native, xys, mags, cam, cfg, None if threads is None else int(threads))
     for i, msg in bad.items():
         f = frames[i]
         results[i] = _invalid(msg, len(f) if isinstance(f, Sized) else 0)
@@ -447,6 +390,33 @@ def identify_many(
         if r.message is not None and not r.message.startswith("frame "):
             results[i] = _invalid(f"frame {i}: {r.message}", len(r.ids))
     return results
+
+
+def _unknown_fov_batch(
+    cat: Catalog,
+    xys: list[npt.NDArray[np.float64]],
+    mags: list[Optional[npt.NDArray[np.float64]]],
+    size: tuple[float, float],
+    fov_range: tuple[float, float],
+    cfg: Any,
+    threads: Optional[int],
+    bad: dict[int, str],
+) -> list[Identification]:
+    """Frames of an unknown field of view, on a thread pool (each call releases the GIL)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    (w, h), (lo, hi) = size, fov_range
+
+    def one(i: int) -> Identification:
+        if i in bad:
+            return _invalid(bad[i], 0)
+        try:
+            return _starid.identify_unknown_fov(cat._native, xys[i], mags[i], w, h, lo, hi, cfg)
+        except ValueError as e:
+            return _invalid(f"frame {i}: {e}", len(xys[i]))
+
+    with ThreadPoolExecutor(max_workers=threads or os.cpu_count() or 1) as pool:
+        return list(pool.map(one, range(len(xys))))
 
 
 def _invalid(message: str, n: int) -> Identification:

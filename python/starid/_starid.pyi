@@ -10,6 +10,7 @@ __all__ = [
     "Catalog",
     "CatalogError",
     "Identification",
+    "Camera",
     "IdentifyConfig",
     "InvalidInputError",
     "StaridError",
@@ -56,6 +57,10 @@ class Catalog:
     @staticmethod
     def from_table_path(path: Union[str, PathLike[str]]) -> Catalog: ...
     @staticmethod
+    def from_unit_vectors(
+        ids: npt.NDArray[np.int64], vectors: npt.NDArray[np.float64], mag: npt.NDArray[np.float64]
+    ) -> Catalog: ...
+    @staticmethod
     def from_hip2_path(path: Union[str, PathLike[str]], mag_limit: float, epoch: float) -> Catalog: ...
     def filter_mag(self, mag_limit: float) -> Catalog: ...
     @property
@@ -73,16 +78,17 @@ class Catalog:
 
 @final
 class IdentifyConfig:
-    """Settings of identification (see ``starid.identify``)."""
+    """Settings of identification: the one place they are written (defaults from the core)."""
 
     def __new__(
         cls,
         *,
         centroid_sigma_px: Optional[float] = None,
         max_false_match_prob: Optional[float] = None,
-        min_matches: Optional[int] = None,
-        max_search_stars: Optional[int] = None,
-        max_hypotheses: Optional[int] = None,
+        min_matches: Optional[Any] = None,
+        max_search_stars: Optional[Any] = None,
+        max_hypotheses: Optional[Any] = None,
+        max_pairs_visited: Optional[Any] = None,
         allow_mirrored: Optional[bool] = None,
         timeout_s: Optional[float] = None,
         method: Optional[str] = None,
@@ -90,6 +96,12 @@ class IdentifyConfig:
         mag_tolerance: Optional[float] = None,
         brightness_order: Optional[bool] = None,
     ) -> IdentifyConfig: ...
+    @staticmethod
+    def names() -> list[str]: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def replace(self, **changes: Any) -> IdentifyConfig: ...
+    def __getnewargs_ex__(self) -> tuple[tuple[()], dict[str, Any]]: ...
+    def __eq__(self, value: object, /) -> bool: ...
     @property
     def centroid_sigma_px(self) -> Optional[float]: ...
     @property
@@ -101,7 +113,11 @@ class IdentifyConfig:
     @property
     def max_hypotheses(self) -> int: ...
     @property
+    def max_pairs_visited(self) -> int: ...
+    @property
     def allow_mirrored(self) -> bool: ...
+    @property
+    def timeout_s(self) -> Optional[float]: ...
     @property
     def method(self) -> str: ...
     @property
@@ -110,6 +126,36 @@ class IdentifyConfig:
     def mag_tolerance(self) -> float: ...
     @property
     def brightness_order(self) -> bool: ...
+
+@final
+class Camera:
+    """A camera: sensor size, focal length, principal point and radial distortion ``k1``."""
+
+    def __new__(
+        cls,
+        image_size: tuple[float, float],
+        fov_deg: Optional[float] = None,
+        *,
+        focal_length_px: Optional[float] = None,
+        principal_point: Optional[tuple[float, float]] = None,
+        k1: float = 0.0,
+    ) -> Camera: ...
+    @property
+    def image_size(self) -> tuple[float, float]: ...
+    @property
+    def fov_deg(self) -> float: ...
+    @property
+    def diagonal_fov_deg(self) -> float: ...
+    @property
+    def focal_length_px(self) -> float: ...
+    @property
+    def principal_point(self) -> tuple[float, float]: ...
+    @property
+    def k1(self) -> float: ...
+    def project(self, vectors: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+    def unproject(self, xy: npt.NDArray[np.float64], mirrored: bool = False) -> npt.NDArray[np.float64]: ...
+    def __getnewargs_ex__(self) -> tuple[tuple[tuple[float, float]], dict[str, Any]]: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
 @final
 class Identification:
@@ -168,18 +214,14 @@ def identify(
     catalog: Catalog,
     xy: npt.NDArray[np.float64],
     magnitudes: Optional[npt.NDArray[np.float64]],
-    width_px: float,
-    height_px: float,
-    fov_deg: float,
+    camera: Camera,
     config: IdentifyConfig,
 ) -> Identification: ...
 def identify_many(
     catalog: Catalog,
     xys: list[npt.NDArray[np.float64]],
     magnitudes: Optional[list[Optional[npt.NDArray[np.float64]]]],
-    width_px: float,
-    height_px: float,
-    fov_deg: float,
+    camera: Camera,
     config: IdentifyConfig,
     threads: Optional[int] = None,
 ) -> list[Identification]: ...

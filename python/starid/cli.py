@@ -13,7 +13,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ._catalog import Catalog, resolve_catalog
-from ._identify import METHODS, Identification, identify, identify_many, simulate
+from ._identify import METHODS, Camera, Identification, identify, identify_many, simulate
 from .starlist import read_star_list
 
 EXAMPLE_FRAME = Path(__file__).parent / "data" / "example_frame.csv"
@@ -328,13 +328,16 @@ def _boresight(args: argparse.Namespace) -> int:
     if args.fov_deg is not None:
         if focal is not None or args.width is None:
             raise ValueError("give --focal-px, or --fov-deg with --width")
-        focal = pointing.focal_from_fov(args.fov_deg, args.width)
+        focal = Camera((args.width, args.width), args.fov_deg).focal_length_px
     focal_range = None
     if args.fov_range_deg is not None:
         if focal is not None or args.width is None:
             raise ValueError("--fov-range-deg needs --width and no --focal-px / --fov-deg")
         lo, hi = sorted(args.fov_range_deg)
-        focal_range = (pointing.focal_from_fov(hi, args.width), pointing.focal_from_fov(lo, args.width))
+        focal_range = (
+            Camera((args.width, args.width), hi).focal_length_px,
+            Camera((args.width, args.width), lo).focal_length_px,
+        )
     stars = np.array(args.star, dtype=float)
     sols = pointing.boresight_from_distances(stars[:, :2], stars[:, 2], focal_px=focal, focal_range_px=focal_range)
     if not sols:

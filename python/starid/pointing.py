@@ -43,36 +43,12 @@ __all__ = [
     "boresight_from_distances",
     "choose_stars",
     "fit_pointing",
-    "focal_from_fov",
-    "fov_from_focal",
     "monte_carlo",
     "predicted_covariance",
     "refine",
 ]
 
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
-
-
-def focal_from_fov(fov_deg: float, width_px: float) -> float:
-    """Focal length in pixels of a camera whose full field across ``width_px`` is ``fov_deg``.
-
-    >>> round(focal_from_fov(12.0, 512), 3)
-    2435.677
-    """
-    if not (0.0 < fov_deg < 179.0) or not width_px > 0:
-        raise InvalidInputError(f"need 0 < fov_deg < 179 and width_px > 0, got {fov_deg}, {width_px}")
-    return 0.5 * width_px / math.tan(math.radians(fov_deg) / 2)
-
-
-def fov_from_focal(focal_px: float, width_px: float) -> float:
-    """Full field of view in degrees across ``width_px`` for a focal length in pixels.
-
-    >>> round(fov_from_focal(2435.677, 512), 4)
-    12.0
-    """
-    if not focal_px > 0 or not width_px > 0:
-        raise InvalidInputError(f"need focal_px > 0 and width_px > 0, got {focal_px}, {width_px}")
-    return math.degrees(2 * math.atan(0.5 * width_px / focal_px))
 
 
 @dataclass(frozen=True)
@@ -246,7 +222,9 @@ def _focal_guess(focal_px: Optional[float], fov_deg: Optional[float], width: flo
     if focal_px is not None and fov_deg is not None:
         raise InvalidInputError("give focal_px or fov_deg, not both")
     if fov_deg is not None:
-        return focal_from_fov(float(fov_deg), width)
+        from ._identify import Camera
+
+        return float(Camera((width, width), float(fov_deg)).focal_length_px)
     return None if focal_px is None else float(focal_px)
 
 

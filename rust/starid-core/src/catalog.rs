@@ -294,10 +294,7 @@ impl Catalog {
             let id = parse_id(f[0]).map_err(|m| Error::catalog(Some(lineno + 1), format!("HIP: {m}")))?;
             let (ra, dec, pm_ra, pm_dec) = (num(4)?, num(5)?, num(7)?, num(8)?);
             let p = radec_to_unit(ra, dec);
-            let (sr, cr) = ra.sin_cos();
-            let (sd, cd) = dec.sin_cos();
-            let east = Vector3::new(-sr, cr, 0.0);
-            let north = Vector3::new(-sd * cr, -sd * sr, cd);
+            let (east, north) = crate::geometry::east_north(ra, dec);
             // pmRA in hip2.dat already includes cos(dec).
             let v = (east * pm_ra + north * pm_dec) * MAS_TO_RAD;
             ids.push(id);

@@ -46,7 +46,25 @@ pub fn rotation_angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
     2.0 * q.imag().norm().atan2(q.w.abs())
 }
 
-/// A pinhole camera: sensor size and focal length in pixels, principal point at the centre.
+/// The camera model every part of starid uses (identification, refinement, the simulator, WCS):
+/// a pinhole of focal length `f` (pixels) with principal point `c` and one radial distortion
+/// term. A direction `(X, Y, Z)` in the camera frame (+z along the boresight, +x along the
+/// pixel rows, +y down the columns) is imaged at
+///
+/// `c + f · (u, v) · (1 + k1 · (u² + v²))`, with `(u, v) = (X / Z, Y / Z)`.
+///
+/// Pixels follow the project's convention: x right, y down, origin at the sensor's top-left
+/// corner, so the default principal point of a W×H sensor is `(W/2, H/2)`.
+///
+/// # Example
+/// ```
+/// use starid_core::Camera;
+/// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+/// assert!((cam.focal_length_px - 2435.677).abs() < 0.001);
+/// let v = cam.pixel_to_cam(100.0, 300.0, false);
+/// let (x, y) = cam.cam_to_pixel(&v).unwrap();
+/// assert!((x - 100.0).abs() < 1e-9 && (y - 300.0).abs() < 1e-9);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     /// Sensor width in pixels.
@@ -55,13 +73,26 @@ pub struct Camera {
     pub height_px: f64,
     /// Focal length in pixels.
     pub focal_length_px: f64,
+    /// Principal point `(cx, cy)` in pixels; the sensor centre by default.
+    pub principal_point_px: [f64; 2],
+    /// Radial distortion on normalised coordinates (negative: barrel); 0 by default.
+    pub k1: f64,
 }
+
+/// Largest |k1| a camera accepts.
+pub const MAX_ABS_K1: f64 = 10.0;
 
 impl Camera {
     /// Camera whose full field of view across the width is `fov_rad`.
     ///
     /// # Errors
     /// `InvalidInput` when the size is not positive and finite or the field of view is outside (0, 179°).
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_fov(20f64.to_radians(), 1024.0, 1024.0).unwrap();
+    /// assert!((cam.fov_rad().to_degrees() - 20.0).abs() < 1e-12);
+    /// ```
     pub fn from_fov(fov_rad: f64, width_px: f64, height_px: f64) -> Result<Self> {
         check_sensor(width_px, height_px)?;
         if !fov_rad.is_finite() || fov_rad <= 0.0 || fov_rad >= 179f64.to_radians() {
@@ -70,18 +101,19 @@ impl Camera {
                 fov_rad.to_degrees()
             )));
         }
-        let focal_length_px = 0.5 * width_px / (0.5 * fov_rad).tan();
-        Ok(Self {
-            width_px,
-            height_px,
-            focal_length_px,
-        })
+        Self::from_focal_length(0.5 * width_px / (0.5 * fov_rad).tan(), width_px, height_px)
     }
 
     /// Camera with a given focal length in pixels.
     ///
     /// # Errors
     /// `InvalidInput` when the size or the focal length is not positive and finite.
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(2000.0, 640.0, 480.0).unwrap();
+    /// assert_eq!(cam.principal_point_px, [320.0, 240.0]);
+    /// ```
     pub fn from_focal_length(focal_length_px: f64, width_px: f64, height_px: f64) -> Result<Self> {
         check_sensor(width_px, height_px)?;
         if !focal_length_px.is_finite() || focal_length_px <= 0.0 {
@@ -93,28 +125,144 @@ impl Camera {
             width_px,
             height_px,
             focal_length_px,
+            principal_point_px: [0.5 * width_px, 0.5 * height_px],
+            k1: 0.0,
         })
     }
 
-    /// Full field of view across the width, radians.
+    /// The same camera with another principal point (pixels).
+    ///
+    /// # Errors
+    /// `InvalidInput` when a coordinate is not finite or lies farther than one sensor size
+    /// outside the sensor.
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(2000.0, 640.0, 480.0).unwrap();
+    /// let off = cam.with_principal_point(330.0, 236.5).unwrap();
+    /// let (x, y) = off.cam_to_pixel(&nalgebra::Vector3::z()).unwrap();
+    /// assert_eq!((x, y), (330.0, 236.5));
+    /// ```
+    pub fn with_principal_point(mut self, cx: f64, cy: f64) -> Result<Self> {
+        let ok = |c: f64, size: f64| c.is_finite() && (-size..=2.0 * size).contains(&c);
+        if !ok(cx, self.width_px) || !ok(cy, self.height_px) {
+            return Err(Error::invalid_input(format!(
+                "principal point ({cx}, {cy}) must be finite and within one sensor size of the {} x {} sensor",
+                self.width_px, self.height_px
+            )));
+        }
+        self.principal_point_px = [cx, cy];
+        Ok(self)
+    }
+
+    /// The same camera with radial distortion `k1` (see [`Camera`]).
+    ///
+    /// # Errors
+    /// `InvalidInput` when `k1` is not finite or |k1| > 10.
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 1000.0, 1000.0).unwrap();
+    /// let barrel = cam.with_k1(-0.05).unwrap();
+    /// let v = barrel.pixel_to_cam(950.0, 900.0, false);
+    /// let (x, y) = barrel.cam_to_pixel(&v).unwrap();
+    /// assert!((x - 950.0).abs() < 1e-9 && (y - 900.0).abs() < 1e-9);
+    /// ```
+    pub fn with_k1(mut self, k1: f64) -> Result<Self> {
+        if !k1.is_finite() || k1.abs() > MAX_ABS_K1 {
+            return Err(Error::invalid_input(format!(
+                "k1 must be finite and within [-{MAX_ABS_K1}, {MAX_ABS_K1}], got {k1}"
+            )));
+        }
+        self.k1 = k1;
+        Ok(self)
+    }
+
+    /// Whether the principal point is the sensor centre and there is no distortion: the case
+    /// the identification's fast paths assume.
+    pub fn is_ideal(&self) -> bool {
+        self.k1 == 0.0
+            && self.principal_point_px == [0.5 * self.width_px, 0.5 * self.height_px]
+    }
+
+    /// Full field of view across the width, radians (of the pinhole, ignoring distortion).
     pub fn fov_rad(&self) -> f64 {
         2.0 * (0.5 * self.width_px / self.focal_length_px).atan()
     }
 
-    /// Full field of view across the diagonal, radians: the largest angle two stars of one frame can span.
+    /// Full field of view across the diagonal, radians: the largest angle two stars of one
+    /// frame can span (of the pinhole; with barrel distortion, of the sensor's farther corner
+    /// from the principal point, whichever is larger).
     pub fn diagonal_fov_rad(&self) -> f64 {
         let half_diag = 0.5 * self.width_px.hypot(self.height_px);
-        2.0 * (half_diag / self.focal_length_px).atan()
+        let pinhole = 2.0 * (half_diag / self.focal_length_px).atan();
+        if self.is_ideal() {
+            return pinhole;
+        }
+        // Widest angle between two corners' rays.
+        let (w, h) = (self.width_px, self.height_px);
+        let corners = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .map(|(x, y)| self.pixel_to_cam(x, y, false));
+        let mut widest = pinhole;
+        for a in 0..4 {
+            for b in a + 1..4 {
+                widest = widest.max(angle_between(&corners[a], &corners[b]));
+            }
+        }
+        widest
     }
 
-    /// Unit vector in the camera frame of pixel `(x, y)`; `mirrored` reverses the x axis.
+    /// Pixel of normalised camera coordinates `(u, v) = (X/Z, Y/Z)`.
+    #[inline]
+    pub fn normalized_to_pixel(&self, u: f64, v: f64) -> (f64, f64) {
+        let g = 1.0 + self.k1 * (u * u + v * v);
+        let f = self.focal_length_px * g;
+        (
+            self.principal_point_px[0] + f * u,
+            self.principal_point_px[1] + f * v,
+        )
+    }
+
+    /// Normalised camera coordinates `(u, v)` of a pixel (inverting the distortion by Newton's
+    /// method; exact without distortion).
+    #[inline]
+    pub fn pixel_to_normalized(&self, x: f64, y: f64) -> (f64, f64) {
+        let (du, dv) = (
+            (x - self.principal_point_px[0]) / self.focal_length_px,
+            (y - self.principal_point_px[1]) / self.focal_length_px,
+        );
+        if self.k1 == 0.0 {
+            return (du, dv);
+        }
+        // Solve r·(1 + k1 r²) = d for the undistorted radius r, then scale.
+        let d = du.hypot(dv);
+        if d == 0.0 {
+            return (0.0, 0.0);
+        }
+        let mut r = d;
+        for _ in 0..20 {
+            let f = r * (1.0 + self.k1 * r * r) - d;
+            let fp = 1.0 + 3.0 * self.k1 * r * r;
+            if fp.abs() < 1e-12 {
+                break;
+            }
+            let step = f / fp;
+            r -= step;
+            if step.abs() < 1e-15 * (1.0 + r.abs()) {
+                break;
+            }
+        }
+        let s = r / d;
+        (du * s, dv * s)
+    }
+
+    /// Unit vector in the camera frame of pixel `(x, y)`. `mirrored` reads the pixel of a
+    /// mirrored frame: the camera's image with x reversed about the sensor (`x → W − x`).
     #[inline]
     pub fn pixel_to_cam(&self, x: f64, y: f64, mirrored: bool) -> Vector3<f64> {
-        let mut dx = x - 0.5 * self.width_px;
-        if mirrored {
-            dx = -dx;
-        }
-        Vector3::new(dx, y - 0.5 * self.height_px, self.focal_length_px).normalize()
+        let x = if mirrored { self.width_px - x } else { x };
+        let (u, v) = self.pixel_to_normalized(x, y);
+        Vector3::new(u, v, 1.0).normalize()
     }
 
     /// Pixel of a camera-frame direction, or `None` behind the camera.
@@ -123,11 +271,7 @@ impl Camera {
         if v_cam.z <= 0.0 {
             return None;
         }
-        let s = self.focal_length_px / v_cam.z;
-        Some((
-            0.5 * self.width_px + s * v_cam.x,
-            0.5 * self.height_px + s * v_cam.y,
-        ))
+        Some(self.normalized_to_pixel(v_cam.x / v_cam.z, v_cam.y / v_cam.z))
     }
 }
 
@@ -173,13 +317,33 @@ pub fn radec_roll_from_attitude(r_icrs_to_cam: &Rotation3<f64>) -> (f64, f64, f6
     (ra, dec, roll)
 }
 
+/// Local east and north unit vectors on the sky at (ra, dec), radians: the directions of
+/// increasing RA and Dec. At a pole "east" is the direction of RA + 90°.
+///
+/// # Example
+/// ```
+/// let (e, n) = starid_core::geometry::east_north(0.0, 0.0);
+/// assert_eq!((e.y, n.z), (1.0, 1.0));
+/// ```
+pub fn east_north(ra_rad: f64, dec_rad: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let (sr, cr) = ra_rad.sin_cos();
+    let (sd, cd) = dec_rad.sin_cos();
+    (
+        Vector3::new(-sr, cr, 0.0),
+        Vector3::new(-sd * cr, -sd * sr, cd),
+    )
+}
+
+/// Local east and north at the direction `d` (unit vector), as [`east_north`] of its RA/Dec.
+pub fn east_north_at(d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let (ra, dec) = unit_to_radec(d);
+    east_north(ra, dec)
+}
+
 /// Camera axes (x, y, z) in ICRS at zero roll for a boresight (ra, dec).
 fn zero_roll_axes(ra_rad: f64, dec_rad: f64) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
     let z = radec_to_unit(ra_rad, dec_rad);
-    let (sr, cr) = ra_rad.sin_cos();
-    let (sd, cd) = dec_rad.sin_cos();
-    let east = Vector3::new(-sr, cr, 0.0);
-    let north = Vector3::new(-sd * cr, -sd * sr, cd);
+    let (east, north) = east_north(ra_rad, dec_rad);
     // x = -east (west), y = -north (image down = celestial south); x × y = east × north = z.
     (-east, -north, z)
 }

@@ -36,7 +36,7 @@ use rand_distr::{Distribution, Normal};
 
 use crate::attitude::wahba_svd;
 use crate::error::{Error, Result};
-use crate::geometry::angle_between;
+use crate::geometry::{angle_between, Camera};
 use crate::lsq::{self, Problem};
 
 /// Largest number of stars the pointing functions accept.
@@ -91,16 +91,6 @@ impl DistanceSolution {
     }
 }
 
-/// Local east and north unit vectors at `d` (any orthonormal pair at the poles).
-fn tangent_basis(d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-    let east = Vector3::z().cross(d);
-    let east = if east.norm() < 1e-9 {
-        Vector3::y()
-    } else {
-        east.normalize()
-    };
-    (east, d.cross(&east))
-}
 
 struct Distances<'a> {
     stars: &'a [Vector3<f64>],
@@ -122,7 +112,7 @@ impl Problem for Distances<'_> {
         let n = self.stars.len();
         let p = if self.known_focal_px.is_some() { 2 } else { 3 };
         let f = s.ln_f.exp();
-        let (e1, e2) = tangent_basis(&s.d);
+        let (e1, e2) = crate::geometry::east_north_at(&s.d);
         let mut r = DVector::zeros(n);
         let mut j = DMatrix::zeros(n, p);
         for (i, star) in self.stars.iter().enumerate() {
@@ -147,7 +137,7 @@ impl Problem for Distances<'_> {
     }
 
     fn step(&self, s: &DistanceState, delta: &DVector<f64>) -> DistanceState {
-        let (e1, e2) = tangent_basis(&s.d);
+        let (e1, e2) = crate::geometry::east_north_at(&s.d);
         DistanceState {
             d: (s.d + e1 * delta[0] + e2 * delta[1]).normalize(),
             ln_f: if delta.len() > 2 {
@@ -834,17 +824,6 @@ pub fn monte_carlo_distances(
 
 // ------------------------------------------------------------------------------- refinement
 
-/// Camera intrinsics refined by [`refine_pointing`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraModel {
-    /// Focal length, pixels.
-    pub focal_length_px: f64,
-    /// Principal point `(cx, cy)`, pixels in image coordinates.
-    pub principal_point_px: [f64; 2],
-    /// First radial distortion coefficient on normalised coordinates.
-    pub k1: f64,
-}
-
 /// What [`refine_pointing`] fits besides the attitude.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineOptions {
@@ -881,8 +860,8 @@ impl Default for RefineOptions {
 pub struct PointingFit {
     /// Rotation ICRS → camera (of the x-reversed image when `mirrored`).
     pub r_icrs_to_cam: Rotation3<f64>,
-    /// Fitted intrinsics (principal point in the input image's coordinates).
-    pub model: CameraModel,
+    /// The fitted camera (principal point in the input image's coordinates).
+    pub camera: Camera,
     /// Parameter names in covariance order: `rot_x`, `rot_y`, `rot_z` (small rotations about
     /// the camera axes, radians), then `focal_px`, `cx_px`, `cy_px`, `k1` as fitted.
     pub parameters: Vec<&'static str>,
@@ -945,7 +924,7 @@ struct Reprojection<'a> {
 #[derive(Clone)]
 struct ReprojectionState {
     r: Rotation3<f64>,
-    model: CameraModel,
+    model: Camera,
 }
 
 impl Reprojection<'_> {
@@ -978,7 +957,6 @@ impl Problem for Reprojection<'_> {
         let p = self.n_params();
         let m = &s.model;
         let f = m.focal_length_px;
-        let [cx, cy] = m.principal_point_px;
         let mut r = DVector::zeros(2 * n);
         let mut j = DMatrix::zeros(2 * n, p);
         for (i, star) in self.stars.iter().enumerate() {
@@ -989,7 +967,7 @@ impl Problem for Reprojection<'_> {
             let (u, v) = (w.x / w.z, w.y / w.z);
             let rho2 = u * u + v * v;
             let g = 1.0 + m.k1 * rho2;
-            let (px, py) = (cx + f * u * g, cy + f * v * g);
+            let (px, py) = m.normalized_to_pixel(u, v);
             r[2 * i] = px - self.xy[i][0];
             r[2 * i + 1] = py - self.xy[i][1];
             // d(px, py)/d(u, v).
@@ -1070,7 +1048,8 @@ fn check_xy(stars: &[Vector3<f64>], xy: &[[f64; 2]]) -> Result<()> {
 }
 
 /// Refine attitude and camera over matched stars (`stars[i]` imaged at `xy[i]`, pixels) by
-/// Levenberg–Marquardt from `start_r` and `start_model`, fitting what `options` asks.
+/// Levenberg–Marquardt from `start_r` and the camera `start`, fitting what `options` asks
+/// (the sensor size stays that of `start`).
 ///
 /// # Errors
 /// `InvalidInput` for mismatched or non-finite input, a bad starting model, or fewer equations
@@ -1078,19 +1057,18 @@ fn check_xy(stars: &[Vector3<f64>], xy: &[[f64; 2]]) -> Result<()> {
 pub fn refine_pointing(
     stars: &[Vector3<f64>],
     xy: &[[f64; 2]],
-    width_px: f64,
     start_r: &Rotation3<f64>,
-    start_model: &CameraModel,
+    start: &Camera,
     options: &RefineOptions,
 ) -> Result<PointingFit> {
     check_xy(stars, xy)?;
-    check_focal(start_model.focal_length_px)?;
-    if !start_model.principal_point_px.iter().all(|c| c.is_finite()) || !start_model.k1.is_finite()
-    {
+    check_focal(start.focal_length_px)?;
+    if !start.principal_point_px.iter().all(|c| c.is_finite()) || !start.k1.is_finite() {
         return Err(Error::invalid_input(
             "the starting principal point and k1 must be finite",
         ));
     }
+    let width_px = start.width_px;
     if let Some(s) = options.sigma_px {
         if !s.is_finite() || s <= 0.0 {
             return Err(Error::invalid_input(format!(
@@ -1112,7 +1090,7 @@ pub fn refine_pointing(
             stars.len()
         )));
     }
-    let mut model = *start_model;
+    let mut model = *start;
     model.principal_point_px[0] = mirror(model.principal_point_px[0]);
     let start = ReprojectionState { r: *start_r, model };
     let sol = lsq::solve(&problem, start, options.max_iterations.max(1)).ok_or_else(|| {
@@ -1134,7 +1112,7 @@ pub fn refine_pointing(
         .collect();
     Ok(PointingFit {
         r_icrs_to_cam: sol.state.r,
-        model,
+        camera: model,
         parameters: problem.names(),
         covariance,
         sigma_px: sigma,
@@ -1242,19 +1220,14 @@ pub fn fit_pointing(
             Error::invalid_input("no pair of stars gives a focal length; pass a guess")
         })?,
     };
-    let sign = if options.mirrored { -1.0 } else { 1.0 };
+    let start = Camera::from_focal_length(f0, width_px, height_px)?;
     let rays: Vec<Vector3<f64>> = xy
         .iter()
-        .map(|p| Vector3::new(sign * (p[0] - centre[0]), p[1] - centre[1], f0).normalize())
+        .map(|p| start.pixel_to_cam(p[0], p[1], options.mirrored))
         .collect();
     let r0 = wahba_svd(&rays, stars)
         .ok_or_else(|| Error::invalid_input("these stars do not fix an attitude"))?;
-    let start = CameraModel {
-        focal_length_px: f0,
-        principal_point_px: centre,
-        k1: 0.0,
-    };
-    refine_pointing(stars, xy, width_px, &r0, &start, options)
+    refine_pointing(stars, xy, &r0, &start, options)
 }
 
 #[cfg(test)]
@@ -1310,12 +1283,16 @@ mod tests {
         let mut stars = Vec::new();
         let mut xy = Vec::new();
         let k1 = -0.02;
+        let truth = Camera::from_focal_length(f, 1024.0, 1024.0)
+            .and_then(|c| c.with_principal_point(515.0, 510.0))
+            .and_then(|c| c.with_k1(k1))
+            .unwrap();
         for i in 0..12 {
             let ang = i as f64 * 0.52;
             let rad = 60.0 + 35.0 * i as f64;
             let (u, v) = (rad * ang.cos() / f, rad * ang.sin() / f);
-            let g = 1.0 + k1 * (u * u + v * v);
-            xy.push([512.0 + 3.0 + f * u * g, 512.0 - 2.0 + f * v * g]);
+            let (x, y) = truth.normalized_to_pixel(u, v);
+            xy.push([x, y]);
             stars.push(r.inverse_transform_vector(&Vector3::new(u, v, 1.0).normalize()));
         }
         let opts = RefineOptions {
@@ -1325,9 +1302,9 @@ mod tests {
         };
         let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(f * 1.3), &opts).unwrap();
         assert!(fit.converged);
-        assert!((fit.model.focal_length_px - f).abs() < 1e-6 * f);
-        assert!((fit.model.k1 - k1).abs() < 1e-6);
-        assert!((fit.model.principal_point_px[0] - 515.0).abs() < 1e-6);
+        assert!((fit.camera.focal_length_px - f).abs() < 1e-6 * f);
+        assert!((fit.camera.k1 - k1).abs() < 1e-6);
+        assert!((fit.camera.principal_point_px[0] - 515.0).abs() < 1e-6);
         assert!(crate::geometry::rotation_angle_between(&fit.r_icrs_to_cam, &r) < 1e-9);
         let _ = radec_to_unit(0.0, 0.0);
     }

@@ -32,9 +32,6 @@ pub struct SimConfig {
     pub drop_fraction: f64,
     /// Reverse the image's x axis (`x → W − x`): a mirrored frame.
     pub mirrored: bool,
-    /// First radial distortion coefficient on normalised coordinates: a star at `(u, v)`
-    /// (camera `x/z`, `y/z`) is imaged at `c + f·(u, v)·(1 + k1·(u² + v²))`.
-    pub radial_k1: f64,
     /// When set, the number of false stars is drawn uniformly from `false_stars..=max`.
     pub false_stars_max: Option<usize>,
     /// How false stars get their magnitudes.
@@ -72,7 +69,6 @@ impl Default for SimConfig {
             false_stars: 0,
             drop_fraction: 0.0,
             mirrored: false,
-            radial_k1: 0.0,
             false_stars_max: None,
             false_star_mags: FalseStarMags::Uniform,
             photon_sigma_at_limit: 0.0,
@@ -281,12 +277,6 @@ pub fn simulate(
     if config.mag_limit.is_some_and(f64::is_nan) {
         return Err(Error::invalid_input("mag_limit is NaN"));
     }
-    if !config.radial_k1.is_finite() || config.radial_k1.abs() > 10.0 {
-        return Err(Error::invalid_input(format!(
-            "radial_k1 must be finite and within [-10, 10], got {}",
-            config.radial_k1
-        )));
-    }
     if config.false_stars_max.is_some_and(|m| m < config.false_stars || m > 100_000) {
         return Err(Error::invalid_input(format!(
             "false_stars_max must be within [false_stars, 100000], got {:?}",
@@ -337,14 +327,6 @@ pub fn simulate(
         }
         let Some((x, y)) = camera.cam_to_pixel(&(r * catalog.vectors()[star as usize])) else {
             continue;
-        };
-        let (x, y) = if config.radial_k1 == 0.0 {
-            (x, y)
-        } else {
-            let f = camera.focal_length_px;
-            let (u, v) = ((x - 0.5 * w) / f, (y - 0.5 * h) / f);
-            let g = 1.0 + config.radial_k1 * (u * u + v * v);
-            (0.5 * w + f * u * g, 0.5 * h + f * v * g)
         };
         // Draw every random number whatever the outcome, so frames stay comparable across settings.
         let (nx, ny, nm, drop): (f64, f64, f64, f64) = (

@@ -30,7 +30,7 @@ use crate::geometry::Camera;
 use crate::identify::{
     binomial_tail, validate_centroids, Identification, IdentifyConfig, Solver, Status,
 };
-use crate::pointing::{focal_for_angle, refine_pointing, CameraModel, PointingFit, RefineOptions};
+use crate::pointing::{focal_for_angle, refine_pointing, PointingFit, RefineOptions};
 use crate::sky::Radius;
 
 /// Most focal-length hypotheses handed to the fixed-focal identification per frame.
@@ -275,20 +275,15 @@ impl Solver {
             let fit = refine_pointing(
                 &stars,
                 &xy,
-                width_px,
                 &r,
-                &CameraModel {
-                    focal_length_px: camera.focal_length_px,
-                    principal_point_px: [0.5 * width_px, 0.5 * height_px],
-                    k1: 0.0,
-                },
+                &camera,
                 &RefineOptions {
                     mirrored: id.mirrored,
                     sigma_px: None,
                     ..RefineOptions::default()
                 },
             )?;
-            let f_new = fit.model.focal_length_px;
+            let f_new = fit.camera.focal_length_px;
             // The matched stars must pin the focal length down: well enough (relative 1σ at most
             // MAX_FOCAL_SIGMA) and with enough leverage that the scale error at the field's
             // corner stays within FOCAL_LEVER noise σ. A tight cluster of stars (the Pleiades)
@@ -502,19 +497,15 @@ impl FocalSearch<'_> {
                 (vectors[c as usize], [p.x, p.y])
             })
             .unzip();
-        let start = CameraModel {
-            focal_length_px: f3,
-            principal_point_px: [self.centre.x, self.centre.y],
-            k1: 0.0,
-        };
+        let start = Camera::from_focal_length(f3, 2.0 * self.centre.x, 2.0 * self.centre.y).ok()?;
         let options = RefineOptions {
             mirrored,
             max_iterations: 30,
             ..RefineOptions::default()
         };
-        match refine_pointing(&stars, &xy, 2.0 * self.centre.x, &rot, &start, &options) {
+        match refine_pointing(&stars, &xy, &rot, &start, &options) {
             Ok(fit) if fit.converged && fit.rms_px <= 4.0 * self.sigma => {
-                Some(fit.model.focal_length_px)
+                Some(fit.camera.focal_length_px)
             }
             _ => Some(f3),
         }

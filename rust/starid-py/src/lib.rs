@@ -6,6 +6,7 @@
 //! Functions mirror Python signatures with many keyword arguments, hence the allowed lint.
 #![allow(clippy::too_many_arguments)]
 
+mod camera;
 mod catalog;
 mod convert;
 mod errors;
@@ -21,6 +22,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
 
+use crate::camera::PyCamera;
 use crate::catalog::PyCatalog;
 use crate::errors::{CatalogError, InvalidInputError, PyStaridError, StaridError};
 use crate::outcome::PyIdentification;
@@ -34,25 +36,65 @@ where
     py.detach(f).map_err(|e| PyStaridError(e).into())
 }
 
-/// Settings of identification (see `starid.identify`).
-#[pyclass(frozen, name = "IdentifyConfig", module = "starid._starid")]
-#[derive(Clone)]
+/// A whole number setting (an int, or a float with an integral value) in [0, 2**32], or an
+/// `InvalidInputError` naming it.
+fn count(name: &str, value: Option<&Bound<'_, PyAny>>, default: usize) -> PyResult<usize> {
+    let Some(v) = value else { return Ok(default) };
+    if v.is_none() {
+        return Ok(default);
+    }
+    let n: Option<i128> = v.extract::<i128>().ok().or_else(|| {
+        v.extract::<f64>()
+            .ok()
+            .filter(|f| f.is_finite() && f.fract() == 0.0 && f.abs() < 1e30)
+            .map(|f| f as i128)
+    });
+    match n {
+        Some(n) if (0..=1i128 << 32).contains(&n) => Ok(n as usize),
+        _ => Err(InvalidInputError::new_err(format!(
+            "{name} must be a whole number in [0, 2**32], got {v}"
+        ))),
+    }
+}
+
+/// Settings of identification: the one place they are written. `starid.identify` and
+/// `identify_many` take each as a keyword; the defaults are the core's `IdentifyConfig::default()`.
+#[pyclass(frozen, eq, name = "IdentifyConfig", module = "starid._starid")]
+#[derive(Clone, PartialEq)]
 pub struct PyIdentifyConfig {
     pub inner: IdentifyConfig,
 }
+
+/// Names of the settings, in the constructor's order.
+const SETTINGS: [&str; 12] = [
+    "centroid_sigma_px",
+    "max_false_match_prob",
+    "min_matches",
+    "max_search_stars",
+    "max_hypotheses",
+    "max_pairs_visited",
+    "allow_mirrored",
+    "timeout_s",
+    "method",
+    "mag_offset",
+    "mag_tolerance",
+    "brightness_order",
+];
 
 #[pymethods]
 impl PyIdentifyConfig {
     #[new]
     #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
-                        max_search_stars=None, max_hypotheses=None, allow_mirrored=None, timeout_s=None,
-                        method=None, mag_offset=0.0, mag_tolerance=None, brightness_order=None))]
+                        max_search_stars=None, max_hypotheses=None, max_pairs_visited=None,
+                        allow_mirrored=None, timeout_s=None, method=None, mag_offset=0.0,
+                        mag_tolerance=None, brightness_order=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
-        min_matches: Option<usize>,
-        max_search_stars: Option<usize>,
-        max_hypotheses: Option<usize>,
+        min_matches: Option<&Bound<'_, PyAny>>,
+        max_search_stars: Option<&Bound<'_, PyAny>>,
+        max_hypotheses: Option<&Bound<'_, PyAny>>,
+        max_pairs_visited: Option<&Bound<'_, PyAny>>,
         allow_mirrored: Option<bool>,
         timeout_s: Option<f64>,
         method: Option<&str>,
@@ -75,9 +117,10 @@ impl PyIdentifyConfig {
         let inner = IdentifyConfig {
             centroid_sigma_px,
             max_false_match_prob: max_false_match_prob.unwrap_or(d.max_false_match_prob),
-            min_matches: min_matches.unwrap_or(d.min_matches),
-            max_search_stars: max_search_stars.unwrap_or(d.max_search_stars),
-            max_hypotheses: max_hypotheses.unwrap_or(d.max_hypotheses),
+            min_matches: count("min_matches", min_matches, d.min_matches)?,
+            max_search_stars: count("max_search_stars", max_search_stars, d.max_search_stars)?,
+            max_hypotheses: count("max_hypotheses", max_hypotheses, d.max_hypotheses)?,
+            max_pairs_visited: count("max_pairs_visited", max_pairs_visited, d.max_pairs_visited)?,
             allow_mirrored: allow_mirrored.unwrap_or(d.allow_mirrored),
             timeout,
             method: match method {
@@ -87,10 +130,50 @@ impl PyIdentifyConfig {
             mag_offset,
             mag_tolerance: mag_tolerance.unwrap_or(d.mag_tolerance),
             brightness_order: brightness_order.unwrap_or(d.brightness_order),
-            ..d
         };
         inner.validate().map_err(PyStaridError)?;
         Ok(Self { inner })
+    }
+
+    /// The names of the settings.
+    #[staticmethod]
+    fn names() -> Vec<&'static str> {
+        SETTINGS.to_vec()
+    }
+
+    /// The settings as a dict (name → value).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = &self.inner;
+        let d = PyDict::new(py);
+        d.set_item("centroid_sigma_px", c.centroid_sigma_px)?;
+        d.set_item("max_false_match_prob", c.max_false_match_prob)?;
+        d.set_item("min_matches", c.min_matches)?;
+        d.set_item("max_search_stars", c.max_search_stars)?;
+        d.set_item("max_hypotheses", c.max_hypotheses)?;
+        d.set_item("max_pairs_visited", c.max_pairs_visited)?;
+        d.set_item("allow_mirrored", c.allow_mirrored)?;
+        d.set_item("timeout_s", c.timeout.map(|t| t.as_secs_f64()))?;
+        d.set_item("method", c.method.name())?;
+        d.set_item("mag_offset", c.mag_offset)?;
+        d.set_item("mag_tolerance", c.mag_tolerance)?;
+        d.set_item("brightness_order", c.brightness_order)?;
+        Ok(d)
+    }
+
+    /// A copy with some settings changed.
+    #[pyo3(signature = (**changes))]
+    fn replace(&self, py: Python<'_>, changes: Option<&Bound<'_, PyDict>>) -> PyResult<Py<Self>> {
+        let d = self.to_dict(py)?;
+        if let Some(c) = changes {
+            d.update(c.as_mapping())?;
+        }
+        let cls = py.get_type::<Self>();
+        Ok(cls.call((), Some(&d))?.cast_into::<Self>()?.unbind())
+    }
+
+    /// Pickling: `IdentifyConfig(**self.to_dict())`.
+    fn __getnewargs_ex__<'py>(&self, py: Python<'py>) -> PyResult<((), Bound<'py, PyDict>)> {
+        Ok(((), self.to_dict(py)?))
     }
 
     #[getter]
@@ -114,8 +197,16 @@ impl PyIdentifyConfig {
         self.inner.max_hypotheses
     }
     #[getter]
+    fn max_pairs_visited(&self) -> usize {
+        self.inner.max_pairs_visited
+    }
+    #[getter]
     fn allow_mirrored(&self) -> bool {
         self.inner.allow_mirrored
+    }
+    #[getter]
+    fn timeout_s(&self) -> Option<f64> {
+        self.inner.timeout.map(|t| t.as_secs_f64())
     }
     #[getter]
     fn method(&self) -> &'static str {
@@ -134,21 +225,13 @@ impl PyIdentifyConfig {
         self.inner.brightness_order
     }
 
-    fn __repr__(&self) -> String {
-        let c = &self.inner;
-        format!(
-            "IdentifyConfig(centroid_sigma_px={}, max_false_match_prob={:e}, min_matches={}, max_search_stars={}, \
-             max_hypotheses={}, allow_mirrored={}, method={:?}, mag_offset={}, mag_tolerance={})",
-            c.centroid_sigma_px.map_or("None".to_string(), |s| s.to_string()),
-            c.max_false_match_prob,
-            c.min_matches,
-            c.max_search_stars,
-            c.max_hypotheses,
-            if c.allow_mirrored { "True" } else { "False" },
-            c.method.name(),
-            c.mag_offset.map_or("None".to_string(), |s| s.to_string()),
-            c.mag_tolerance
-        )
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let d = self.to_dict(py)?;
+        let parts: PyResult<Vec<String>> = SETTINGS
+            .iter()
+            .map(|k| Ok(format!("{k}={}", d.get_item(k)?.expect("every setting").repr()?)))
+            .collect();
+        Ok(format!("IdentifyConfig({})", parts?.join(", ")))
     }
 }
 
@@ -158,18 +241,16 @@ pub(crate) fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Ca
 
 /// Identify one frame.
 #[pyfunction]
-#[pyo3(signature = (catalog, xy, magnitudes, width_px, height_px, fov_deg, config))]
+#[pyo3(signature = (catalog, xy, magnitudes, camera, config))]
 fn identify<'py>(
     py: Python<'py>,
     catalog: &Bound<'py, PyCatalog>,
     xy: PyReadonlyArray2<'py, f64>,
     magnitudes: Option<PyReadonlyArray1<'py, f64>>,
-    width_px: f64,
-    height_px: f64,
-    fov_deg: f64,
+    camera: &Bound<'py, PyCamera>,
     config: &Bound<'py, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
-    let cam = camera(fov_deg, width_px, height_px)?;
+    let cam = camera.get().inner;
     let centroids = convert::centroids("xy", &xy)?;
     let mags = magnitudes
         .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
@@ -189,16 +270,14 @@ fn identify<'py>(
 
 /// Identify many frames of one camera in parallel (GIL released); results in input order.
 #[pyfunction]
-#[pyo3(signature = (catalog, xys, magnitudes, width_px, height_px, fov_deg, config, threads=None))]
+#[pyo3(signature = (catalog, xys, magnitudes, camera, config, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify_many<'py>(
     py: Python<'py>,
     catalog: &Bound<'py, PyCatalog>,
     xys: Vec<PyReadonlyArray2<'py, f64>>,
     magnitudes: Option<Vec<Option<PyReadonlyArray1<'py, f64>>>>,
-    width_px: f64,
-    height_px: f64,
-    fov_deg: f64,
+    camera: &Bound<'py, PyCamera>,
     config: &Bound<'py, PyIdentifyConfig>,
     threads: Option<usize>,
 ) -> PyResult<Vec<PyIdentification>> {
@@ -207,7 +286,7 @@ fn identify_many<'py>(
             "threads must be at least 1 (or None for all cores)",
         ));
     }
-    let cam = camera(fov_deg, width_px, height_px)?;
+    let cam = camera.get().inner;
     let mut frames = Vec::with_capacity(xys.len());
     for (i, xy) in xys.iter().enumerate() {
         if i % 4096 == 4095 {
@@ -293,7 +372,9 @@ fn simulate<'py>(
     mirrored: bool,
     radial_k1: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let cam = camera(fov_deg, width_px, height_px)?;
+    let cam = camera(fov_deg, width_px, height_px)?
+        .with_k1(radial_k1)
+        .map_err(|e| InvalidInputError::new_err(format!("radial_k1: {e}")))?;
     let r = match attitude_deg {
         None => None,
         Some((ra, dec, roll)) => {
@@ -317,7 +398,6 @@ fn simulate<'py>(
         false_stars,
         drop_fraction,
         mirrored,
-        radial_k1,
         ..Default::default()
     };
     let cat = Arc::clone(&catalog.get().inner);
@@ -360,6 +440,7 @@ fn methods() -> Vec<(&'static str, &'static str)> {
 fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyCatalog>()?;
+    m.add_class::<PyCamera>()?;
     m.add_class::<PyIdentifyConfig>()?;
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;

@@ -96,19 +96,19 @@ pub fn fit_dict<'py>(
     d.set_item("dec_deg", dec.to_degrees())?;
     d.set_item("roll_deg", roll.to_degrees())?;
     outcome::put_rotation(&d, &fit.r_icrs_to_cam)?;
-    d.set_item("focal_px", fit.model.focal_length_px)?;
+    d.set_item("focal_px", fit.camera.focal_length_px)?;
     d.set_item(
         "fov_deg",
-        (2.0 * (0.5 * width_px / fit.model.focal_length_px).atan()).to_degrees(),
+        (2.0 * (0.5 * width_px / fit.camera.focal_length_px).atan()).to_degrees(),
     )?;
     d.set_item(
         "principal_point_px",
         (
-            fit.model.principal_point_px[0],
-            fit.model.principal_point_px[1],
+            fit.camera.principal_point_px[0],
+            fit.camera.principal_point_px[1],
         ),
     )?;
-    d.set_item("k1", fit.model.k1)?;
+    d.set_item("k1", fit.camera.k1)?;
     d.set_item("parameters", fit.parameters.clone())?;
     match &fit.covariance {
         Some(c) => d.set_item("covariance", matrix(py, c))?,
@@ -264,9 +264,8 @@ pub fn identify_unknown_fov<'py>(
         )
     })?;
     let nan_camera = Camera {
-        width_px,
-        height_px,
         focal_length_px: f64::NAN,
+        ..widest
     };
     let cam = r.camera.unwrap_or(nan_camera);
     Ok(PyIdentification::new(

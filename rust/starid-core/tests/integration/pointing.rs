@@ -172,7 +172,7 @@ proptest! {
         let f_guess = 256.0 / (0.5 * fov_guess).tan();
         let fit = fit_pointing(&stars, &xy, 512.0, 512.0, Some(f_guess), &RefineOptions::default()).unwrap();
         prop_assert!(fit.converged);
-        prop_assert!(((fit.model.focal_length_px - f) / f).abs() < 1e-9);
+        prop_assert!(((fit.camera.focal_length_px - f) / f).abs() < 1e-9);
         prop_assert!((fit.r_icrs_to_cam.matrix() - r.matrix()).norm() < 1e-9);
     }
 }
