@@ -14,10 +14,14 @@ __all__ = [
     "IdentifyConfig",
     "InvalidInputError",
     "StaridError",
+    "GUIDE_MAX_TRIALS",
+    "INCONSISTENT_RMS_PX",
     "__version__",
     "guide_field_counts",
+    "guide_fov_for_coverage",
     "guide_metrics",
     "guide_nearest_neighbours",
+    "guide_qtm_triangle_count",
     "guide_select",
     "boresight_from_distances",
     "choose_stars",
@@ -33,6 +37,8 @@ __all__ = [
 ]
 
 __version__: str
+INCONSISTENT_RMS_PX: float
+GUIDE_MAX_TRIALS: int
 
 class StaridError(ValueError):
     """Base class of starid's own exceptions (a ValueError: each says what input is wrong)."""
@@ -74,6 +80,7 @@ class Catalog:
     @property
     def unit_vectors(self) -> npt.NDArray[np.float64]: ...
     def index_info(self, max_angle_deg: float) -> dict[str, Any]: ...
+    def rows_of(self, ids: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]: ...
     def __len__(self) -> int: ...
 
 @final
@@ -252,7 +259,21 @@ def guide_select(
     cell_deg: Optional[float] = None,
     level: Optional[int] = None,
 ) -> Catalog: ...
-def guide_metrics(catalog: Catalog, fov_deg: float, trials: int, seed: int, field: str) -> dict[str, Any]: ...
+def guide_metrics(
+    catalog: Catalog, fov_deg: float, trials: int, seed: int, field: str, k_max: int = 10
+) -> dict[str, Any]: ...
+def guide_fov_for_coverage(
+    catalog: Catalog,
+    p: float,
+    k: int,
+    field: str,
+    trials: int,
+    seed: int,
+    lo_deg: float,
+    hi_deg: float,
+    tol_deg: float,
+) -> float: ...
+def guide_qtm_triangle_count(level: int) -> int: ...
 def guide_field_counts(
     catalog: Catalog, fov_deg: float, trials: int, seed: int, field: str
 ) -> npt.NDArray[np.uint64]: ...
@@ -261,6 +282,7 @@ def boresight_from_distances(
     radec_deg: npt.NDArray[np.float64],
     distances_px: npt.NDArray[np.float64],
     focal_px: Optional[float] = None,
+    focal_range_px: Optional[tuple[float, float]] = None,
 ) -> list[dict[str, Any]]: ...
 def fit_pointing(
     radec_deg: npt.NDArray[np.float64],

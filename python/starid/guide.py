@@ -91,9 +91,7 @@ def qtm_triangle_count(level: int) -> int:
     >>> qtm_triangle_count(1), qtm_triangle_count(5)
     (8, 2048)
     """
-    if level < 1:
-        raise InvalidInputError(f"the QTM level must be >= 1, got {level}")
-    return int(8 * 4 ** (level - 1))
+    return int(_starid.guide_qtm_triangle_count(_count("level", level)))
 
 
 def select(catalog: Union[Catalog, PathLike, None] = None, method: str = "qtm-weighted", **params: Any) -> Catalog:
@@ -208,11 +206,10 @@ def metrics(
     """
     cat = resolve_catalog(catalog)
     trials = _count("trials", trials)
-    out: dict[str, Any] = dict(_starid.guide_metrics(cat._native, _finite("fov_deg", fov_deg), trials, _seed(seed), field))
-    hist = np.asarray(out["stars_per_field"], dtype=np.int64)
-    out["stars_per_field"] = hist
-    tail = np.cumsum(hist[::-1])[::-1]
-    out["p_at_least"] = {k: (float(tail[k]) / trials if k < len(tail) else 0.0) for k in range(1, k_max + 1)}
+    out: dict[str, Any] = dict(
+        _starid.guide_metrics(cat._native, _finite("fov_deg", fov_deg), trials, _seed(seed), field, _count("k_max", k_max))
+    )
+    out["stars_per_field"] = np.asarray(out["stars_per_field"], dtype=np.int64)
     out["fov_deg"] = float(fov_deg)
     out["field"] = field
     return out
@@ -273,33 +270,19 @@ def fov_for_coverage(
     True
     """
     cat = resolve_catalog(catalog)
-    if not 0.0 < p <= 1.0:
-        raise InvalidInputError(f"p must be in (0, 1], got {p}")
-    if k < 1:
-        raise InvalidInputError(f"k must be >= 1, got {k}")
-    trials = _count("trials", trials)
-    lo_deg, hi_deg, tol_deg = _finite("lo_deg", lo_deg), _finite("hi_deg", hi_deg), _finite("tol_deg", tol_deg)
-    if not 0.0 < lo_deg < hi_deg <= 180.0:
-        raise InvalidInputError(f"need 0 < lo_deg < hi_deg <= 180, got lo_deg={lo_deg}, hi_deg={hi_deg}")
-    # The bisection halves the bracket each step: a tolerance below 1e-6 degrees (or zero) would
-    # never end in floating point.
-    if not tol_deg >= 1e-6:
-        raise InvalidInputError(f"tol_deg must be at least 1e-6 degrees, got {tol_deg}")
-
-    def coverage(fov: float) -> float:
-        hist = stars_per_field(cat, fov, trials, field=field, seed=seed)
-        return float(hist[k:].sum()) / trials
-
-    if coverage(hi_deg) < p:
-        raise InvalidInputError(f"even a {hi_deg:g} degree {field} field holds {k} stars in less than {p:.4%} of pointings")
-    lo, hi = lo_deg, hi_deg
-    while hi - lo > tol_deg:
-        mid = 0.5 * (lo + hi)
-        if coverage(mid) >= p:
-            hi = mid
-        else:
-            lo = mid
-    return hi
+    return float(
+        _starid.guide_fov_for_coverage(
+            cat._native,
+            _finite("p", p),
+            _count("k", k),
+            field,
+            _count("trials", trials),
+            _seed(seed),
+            _finite("lo_deg", lo_deg),
+            _finite("hi_deg", hi_deg),
+            _finite("tol_deg", tol_deg),
+        )
+    )
 
 
 def compare(
@@ -405,8 +388,8 @@ def _finite(name: str, value: Any) -> float:
     return v
 
 
-#: Most Monte Carlo fields one call draws (about 10 s of work on one core).
-MAX_TRIALS = 10_000_000
+#: Most Monte Carlo fields one call draws (about 10 s of work on one core; the core's limit).
+MAX_TRIALS: int = _starid.GUIDE_MAX_TRIALS
 
 
 def _count(name: str, value: Any) -> int:

@@ -93,18 +93,17 @@ class BoresightSolution:
     iterations: int
     unit_covariance: Optional[npt.NDArray[np.float64]]
     inconsistent: bool = False
+    boresight_sigma_rad_per_px: float = math.inf
 
     def boresight_sigma_arcsec(self, sigma_px: float) -> float:
-        """Predicted 1σ boresight error (arcsec) for ``sigma_px`` of noise on each distance."""
-        if self.unit_covariance is None:
-            return math.inf
-        c = self.unit_covariance
-        return float(sigma_px * math.sqrt(c[0, 0] + c[1, 1]) * ARCSEC_PER_RAD)
+        """Predicted 1σ boresight error (arcsec) for ``sigma_px`` of noise on each distance
+        (the core's figure for 1 px, scaled; infinite when degenerate)."""
+        return float(sigma_px * self.boresight_sigma_rad_per_px * ARCSEC_PER_RAD)
 
 
 #: A boresight solution whose distances are missed by more than this (rms, pixels) is flagged
 #: ``inconsistent``: far beyond centroid noise, the distances do not belong together.
-INCONSISTENT_RMS_PX = 5.0
+INCONSISTENT_RMS_PX: float = _starid.INCONSISTENT_RMS_PX
 
 
 def boresight_from_distances(
@@ -153,20 +152,14 @@ def boresight_from_distances(
     rd = _radec(radec_deg)
     a = np.ascontiguousarray(distances_px, dtype=np.float64).ravel()
     f = None if focal_px is None else float(focal_px)
-    raw = list(_starid.boresight_from_distances(rd, a, f))
+    rng = None
     if focal_range_px is not None:
-        if f is not None:
-            raise InvalidInputError("focal_range_px only applies when focal_px is not given")
-        lo, hi = (float(v) for v in focal_range_px)
-        if not (0 < lo <= hi and math.isfinite(hi)):
-            raise InvalidInputError(f"focal_range_px must be (lo, hi) with 0 < lo <= hi, got {focal_range_px!r}")
-        raw = [d for d in raw if lo <= d["focal_px"] <= hi]
-        if raw:
-            # Ambiguity among the solutions the range allows (the rule of the core).
-            limit = 2.0 * raw[0]["rms_px"] + 1e-9 * float(np.max(a))
-            rivals = sum(d["rms_px"] <= limit for d in raw)
-            for d in raw:
-                d["ambiguous"] = rivals > 1 and d["rms_px"] <= limit
+        try:
+            lo, hi = (float(v) for v in focal_range_px)
+        except (TypeError, ValueError) as e:
+            raise InvalidInputError(f"focal_range_px must be a pair (lo, hi), got {focal_range_px!r}") from e
+        rng = (lo, hi)
+    raw = list(_starid.boresight_from_distances(rd, a, f, rng))
     return [
         BoresightSolution(
             ra_deg=float(d["ra_deg"]),
@@ -181,7 +174,8 @@ def boresight_from_distances(
             converged=bool(d["converged"]),
             iterations=int(d["iterations"]),
             unit_covariance=d["unit_covariance"],
-            inconsistent=float(d["rms_px"]) > INCONSISTENT_RMS_PX,
+            inconsistent=bool(d["inconsistent"]),
+            boresight_sigma_rad_per_px=float(d["boresight_sigma_rad_per_px"]),
         )
         for i, d in enumerate(raw)
     ]
@@ -330,11 +324,7 @@ def refine(
     if a.shape[0] != len(result.ids):
         raise InvalidInputError(f"xy has {a.shape[0]} rows but the identification has {len(result.ids)} ids")
     matched = result.ids >= 0
-    row_of = {int(i): k for k, i in enumerate(cat.ids)}
-    try:
-        rows = [row_of[int(i)] for i in result.ids[matched]]
-    except KeyError as e:
-        raise InvalidInputError(f"catalogue id {e.args[0]} is not in this catalogue: pass the one used to identify") from None
+    rows = cat._native.rows_of(np.ascontiguousarray(result.ids[matched], dtype=np.int64))
     radec = np.column_stack([cat.ra_deg[rows], cat.dec_deg[rows]])
     return fit_pointing(
         radec,

@@ -35,6 +35,8 @@ pub struct Catalog {
     zones: ZoneIndex,
     wide_zones: ZoneIndex,
     cells: CellIndex,
+    /// Row of each id, built on first use.
+    row_of_id: std::sync::OnceLock<std::collections::HashMap<i64, u32>>,
 }
 
 impl Catalog {
@@ -173,6 +175,7 @@ impl Catalog {
             zones,
             wide_zones,
             cells,
+            row_of_id: std::sync::OnceLock::new(),
         }
     }
 
@@ -354,6 +357,36 @@ impl Catalog {
     /// Catalogue ids.
     pub fn ids(&self) -> &[i64] {
         &self.ids
+    }
+
+    /// The row (index) of each id: the join of an identification's ids with the catalogue.
+    ///
+    /// # Errors
+    /// `InvalidInput` naming the first id the catalogue does not hold.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![10, 20, 30], &[0.0, 1.0, 2.0], &[0.0; 3], vec![1.0; 3]).unwrap();
+    /// assert_eq!(cat.rows_of(&[30, 10]).unwrap(), vec![2, 0]);
+    /// assert!(cat.rows_of(&[40]).is_err());
+    /// ```
+    pub fn rows_of(&self, ids: &[i64]) -> Result<Vec<usize>> {
+        let map = self.row_of_id.get_or_init(|| {
+            self.ids
+                .iter()
+                .enumerate()
+                .map(|(k, &id)| (id, k as u32))
+                .collect()
+        });
+        ids.iter()
+            .map(|id| {
+                map.get(id).map(|&k| k as usize).ok_or_else(|| {
+                    Error::invalid_input(format!(
+                        "catalogue id {id} is not in this catalogue: pass the one used to identify"
+                    ))
+                })
+            })
+            .collect()
     }
 
     /// Right ascensions in radians, `[0, 2π)`.

@@ -285,6 +285,47 @@ fn check_sensor(width_px: f64, height_px: f64) -> Result<()> {
     Ok(())
 }
 
+/// The quaternion `[w, x, y, z]` (scalar first) of a rotation, with the sign rule every
+/// output of starid follows: `w >= 0` (of `q` and `−q`, which are the same rotation).
+///
+/// # Example
+/// ```
+/// use nalgebra::{Rotation3, Vector3};
+/// let r = Rotation3::from_axis_angle(&Vector3::z_axis(), 3.0);
+/// let q = starid_core::geometry::quaternion_wxyz(&r);
+/// assert!(q[0] >= 0.0 && (q[3] - 1.5f64.sin()).abs() < 1e-12);
+/// ```
+pub fn quaternion_wxyz(r: &Rotation3<f64>) -> [f64; 4] {
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(r);
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
+/// The rotation of a quaternion `[w, x, y, z]` (either sign), normalised.
+///
+/// # Errors
+/// `InvalidInput` when a component is not finite or the norm is not within 1e-3 of 1.
+///
+/// # Example
+/// ```
+/// use starid_core::geometry::{quaternion_wxyz, rotation_from_wxyz, attitude_from_radec_roll};
+/// let r = attitude_from_radec_roll(1.0, 0.5, 0.25);
+/// let back = rotation_from_wxyz(quaternion_wxyz(&r)).unwrap();
+/// assert!(starid_core::geometry::rotation_angle_between(&r, &back) < 1e-12);
+/// ```
+pub fn rotation_from_wxyz(q: [f64; 4]) -> Result<Rotation3<f64>> {
+    let n = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    if !n.is_finite() || (n - 1.0).abs() > 1e-3 {
+        return Err(Error::invalid_input(format!(
+            "a quaternion [w, x, y, z] must be finite with norm 1 (within 1e-3), got {q:?}"
+        )));
+    }
+    let uq = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        q[0], q[1], q[2], q[3],
+    ));
+    Ok(uq.to_rotation_matrix())
+}
+
 /// Camera attitude from boresight RA/Dec and roll (radians).
 ///
 /// At roll 0 the image's up direction (−y) points to celestial north and +x to the west

@@ -36,7 +36,7 @@ use crate::simulate::random_rotation;
 pub const QTM_MAX_LEVEL: u32 = 20;
 
 /// Most Monte Carlo fields [`field_star_counts`] accepts in one call.
-pub const MAX_TRIALS: usize = 100_000_000;
+pub const MAX_TRIALS: usize = 10_000_000;
 
 /// Every star with `mag <= mag_limit`.
 ///
@@ -350,6 +350,14 @@ impl Field {
         Ok(())
     }
 
+    /// The same shape with another field of view.
+    pub fn with_fov(self, fov_rad: f64) -> Self {
+        match self {
+            Field::Circle { .. } => Field::Circle { fov_rad },
+            Field::Square { .. } => Field::Square { fov_rad },
+        }
+    }
+
     /// The largest angle between two stars of one field, radians.
     pub fn max_pair_angle_rad(&self) -> f64 {
         match *self {
@@ -503,6 +511,81 @@ pub fn metrics(catalog: &Catalog, field: Field, trials: usize, seed: u64) -> Res
         pairs,
         index_bytes: PairIndex::memory_bytes_for(pairs, catalog.len()),
     })
+}
+
+/// Smallest tolerance of [`fov_for_coverage`], radians (1e-6 degrees): the bisection halves
+/// its bracket each step, and a smaller one would never end in floating point.
+pub const MIN_COVERAGE_TOL_RAD: f64 = 1e-6 * std::f64::consts::PI / 180.0;
+
+/// The smallest field of `field`'s shape, within `[lo_rad, hi_rad]` and to `tol_rad`, in
+/// which a fraction `p` of `trials` random pointings holds at least `k` stars: bisection over
+/// the Monte Carlo of [`field_star_counts`] with the same pointings (`seed`) at every step.
+///
+/// # Errors
+/// `InvalidInput` for `p` outside (0, 1], `k` = 0, a bracket not `0 < lo < hi`, a tolerance
+/// below [`MIN_COVERAGE_TOL_RAD`], or when even `hi_rad` does not reach `p`; as
+/// [`field_star_counts`] otherwise.
+///
+/// # Example
+/// ```
+/// use starid_core::guide::{fov_for_coverage, Field};
+/// let cat = starid_core::simulate::random_catalog(5000, 1.0, 6.0, 1).unwrap();
+/// let shape = Field::Circle { fov_rad: 0.0 };
+/// let fov = fov_for_coverage(&cat, shape, 0.99, 3, 2000, 0, 1e-3, 1.0, 1e-4).unwrap();
+/// assert!(fov > 0.0 && fov < 1.0);
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn fov_for_coverage(
+    catalog: &Catalog,
+    field: Field,
+    p: f64,
+    k: usize,
+    trials: usize,
+    seed: u64,
+    lo_rad: f64,
+    hi_rad: f64,
+    tol_rad: f64,
+) -> Result<f64> {
+    if !(p > 0.0 && p <= 1.0) {
+        return Err(Error::invalid_input(format!("p must be in (0, 1], got {p}")));
+    }
+    if k == 0 {
+        return Err(Error::invalid_input("k must be >= 1"));
+    }
+    if !(lo_rad > 0.0 && lo_rad < hi_rad && hi_rad.is_finite()) {
+        return Err(Error::invalid_input(format!(
+            "need 0 < lo_deg < hi_deg, got lo_deg={} hi_deg={}",
+            lo_rad.to_degrees(),
+            hi_rad.to_degrees()
+        )));
+    }
+    if tol_rad.is_nan() || tol_rad < MIN_COVERAGE_TOL_RAD {
+        return Err(Error::invalid_input(format!(
+            "the tolerance (tol_deg) must be at least 1e-6 degrees, got {} degrees",
+            tol_rad.to_degrees()
+        )));
+    }
+    let coverage = |fov: f64| -> Result<f64> {
+        let hist = field_star_counts(catalog, field.with_fov(fov), trials, seed)?;
+        Ok(hist.iter().skip(k).sum::<u64>() as f64 / trials as f64)
+    };
+    if coverage(hi_rad)? < p {
+        return Err(Error::invalid_input(format!(
+            "even a {} degree field holds {k} stars in less than {:.4}% of pointings",
+            hi_rad.to_degrees(),
+            100.0 * p
+        )));
+    }
+    let (mut lo, mut hi) = (lo_rad, hi_rad);
+    while hi - lo > tol_rad {
+        let mid = 0.5 * (lo + hi);
+        if coverage(mid)? >= p {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(hi)
 }
 
 #[cfg(test)]

@@ -1,12 +1,13 @@
 //! `Catalog`: the native catalogue, with a cache of the pair indexes built for it.
 
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use starid_core::identify::SolverCache;
 use starid_core::{Catalog, Solver};
 
 use crate::convert;
@@ -17,57 +18,22 @@ use crate::run_core;
 #[pyclass(frozen, name = "Catalog", module = "starid._starid")]
 pub struct PyCatalog {
     pub inner: Arc<Catalog>,
-    /// Pair indexes built so far, each for a largest angle.
-    solvers: Mutex<Vec<Arc<Solver>>>,
-    /// Held while an index is built, so that it is built once.
-    building: Mutex<()>,
+    /// Pair indexes built for it (the core's cache: each built once).
+    solvers: SolverCache,
 }
 
 impl PyCatalog {
     pub fn wrap(inner: Catalog) -> Self {
+        let inner = Arc::new(inner);
         Self {
-            inner: Arc::new(inner),
-            solvers: Mutex::new(Vec::new()),
-            building: Mutex::new(()),
+            solvers: SolverCache::new(inner.clone()),
+            inner,
         }
     }
 
-    /// A solver whose pair index covers `max_angle_rad`, reusing a cached one when it is not
-    /// much larger than needed (a larger index is correct but slower to query).
+    /// A solver whose pair index covers `max_angle_rad`, built once (with the GIL released).
     pub fn solver(&self, py: Python<'_>, max_angle_rad: f64) -> PyResult<Arc<Solver>> {
-        // A cached index that covers the angle and is not much larger than needed.
-        let cached = || {
-            self.solvers
-                .lock()
-                .expect("solver cache poisoned")
-                .iter()
-                .find(|s| {
-                    let m = s.pair_index().max_angle_rad();
-                    m >= max_angle_rad && m <= 1.25 * max_angle_rad
-                })
-                .cloned()
-        };
-        if let Some(s) = cached() {
-            return Ok(s);
-        }
-        // One build per index: threads that ask at once wait for the first (with the GIL
-        // released) and take its result from the cache.
-        let solver = py
-            .detach(|| -> starid_core::Result<Arc<Solver>> {
-                let _building = self.building.lock().expect("build lock poisoned");
-                if let Some(s) = cached() {
-                    return Ok(s);
-                }
-                // Build with a little margin so that nearby fields of view share one index.
-                let solver = Arc::new(Solver::new(self.inner.clone(), max_angle_rad * 1.02)?);
-                self.solvers
-                    .lock()
-                    .expect("solver cache poisoned")
-                    .push(solver.clone());
-                Ok(solver)
-            })
-            .map_err(PyStaridError)?;
-        Ok(solver)
+        run_core(py, || self.solvers.solver(max_angle_rad))
     }
 }
 
@@ -198,6 +164,21 @@ impl PyCatalog {
         d.set_item("memory_bytes", s.memory_bytes())?;
         d.set_item("build_time_s", s.build_time().as_secs_f64())?;
         Ok(d)
+    }
+
+    /// The row of each id (the join of identified ids with the catalogue).
+    fn rows_of<'py>(
+        &self,
+        py: Python<'py>,
+        ids: PyReadonlyArray1<'_, i64>,
+    ) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let ids: Vec<i64> = ids.as_array().iter().copied().collect();
+        let rows = self.inner.rows_of(&ids).map_err(PyStaridError)?;
+        Ok(rows
+            .into_iter()
+            .map(|r| r as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py))
     }
 
     fn __len__(&self) -> usize {

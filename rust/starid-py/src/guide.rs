@@ -103,7 +103,7 @@ pub fn guide_field_counts<'py>(
 
 /// Metrics of a guide catalogue for circular or square fields of `fov_deg`.
 #[pyfunction]
-#[pyo3(signature = (catalog, fov_deg, trials, seed, field))]
+#[pyo3(signature = (catalog, fov_deg, trials, seed, field, k_max=10))]
 pub fn guide_metrics<'py>(
     py: Python<'py>,
     catalog: &PyCatalog,
@@ -111,7 +111,13 @@ pub fn guide_metrics<'py>(
     trials: usize,
     seed: u64,
     field: &str,
+    k_max: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
+    if k_max > 10_000 {
+        return Err(InvalidInputError::new_err(format!(
+            "k_max must be at most 10000, got {k_max}"
+        )));
+    }
     let field = parse_field(field, fov_deg)?;
     let cat = catalog.inner.clone();
     let m = run_core(py, move || guide::metrics(&cat, field, trials, seed))?;
@@ -121,6 +127,11 @@ pub fn guide_metrics<'py>(
     d.set_item("nn_mean_deg", m.nn_mean_rad.to_degrees())?;
     d.set_item("nn_std_deg", m.nn_std_rad.to_degrees())?;
     d.set_item("p_at_least_3", m.p_at_least(3))?;
+    let p_at_least = PyDict::new(py);
+    for k in 1..=k_max {
+        p_at_least.set_item(k, m.p_at_least(k))?;
+    }
+    d.set_item("p_at_least", p_at_least)?;
     d.set_item("mean_stars_per_field", m.mean_stars_per_field())?;
     d.set_item("trials", m.trials())?;
     d.set_item(
@@ -145,4 +156,48 @@ pub fn guide_nearest_neighbours<'py>(
         .map(f64::to_degrees)
         .collect::<Vec<_>>()
         .into_pyarray(py))
+}
+
+/// The smallest field holding at least `k` stars in a fraction `p` of random pointings, degrees.
+#[pyfunction]
+#[pyo3(signature = (catalog, p, k, field, trials, seed, lo_deg, hi_deg, tol_deg))]
+pub fn guide_fov_for_coverage(
+    py: Python<'_>,
+    catalog: &PyCatalog,
+    p: f64,
+    k: usize,
+    field: &str,
+    trials: usize,
+    seed: u64,
+    lo_deg: f64,
+    hi_deg: f64,
+    tol_deg: f64,
+) -> PyResult<f64> {
+    let shape = parse_field(field, 1.0)?;
+    let cat = catalog.inner.clone();
+    let fov = run_core(py, move || {
+        guide::fov_for_coverage(
+            &cat,
+            shape,
+            p,
+            k,
+            trials,
+            seed,
+            lo_deg.to_radians(),
+            hi_deg.to_radians(),
+            tol_deg.to_radians(),
+        )
+    })?;
+    Ok(fov.to_degrees())
+}
+
+/// Number of triangles of QTM level `level`: `8 * 4**(level - 1)`.
+#[pyfunction]
+pub fn guide_qtm_triangle_count(level: u32) -> PyResult<u64> {
+    if !(1..=30).contains(&level) {
+        return Err(InvalidInputError::new_err(format!(
+            "the QTM level must be in 1..=30, got {level}"
+        )));
+    }
+    Ok(guide::qtm_triangle_count(level))
 }

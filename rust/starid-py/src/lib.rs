@@ -439,6 +439,11 @@ fn methods() -> Vec<(&'static str, &'static str)> {
 #[pymodule(gil_used = false)]
 fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("GUIDE_MAX_TRIALS", starid_core::guide::MAX_TRIALS)?;
+    m.add(
+        "INCONSISTENT_RMS_PX",
+        starid_core::pointing::INCONSISTENT_RMS_PX,
+    )?;
     m.add_class::<PyCatalog>()?;
     m.add_class::<PyCamera>()?;
     m.add_class::<PyIdentifyConfig>()?;
@@ -452,6 +457,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(guide::guide_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_nearest_neighbours, m)?)?;
     m.add_function(wrap_pyfunction!(guide::guide_field_counts, m)?)?;
+    m.add_function(wrap_pyfunction!(guide::guide_fov_for_coverage, m)?)?;
+    m.add_function(wrap_pyfunction!(guide::guide_qtm_triangle_count, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::boresight_from_distances, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::fit_pointing, m)?)?;
     m.add_function(wrap_pyfunction!(

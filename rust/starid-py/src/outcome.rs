@@ -1,7 +1,7 @@
 //! Core results → Python: the native `Identification` class, and dicts of plain values and numpy
 //! arrays (moved, not copied) for simulated frames and pointing fits.
 
-use nalgebra::{Rotation3, UnitQuaternion};
+use nalgebra::Rotation3;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
@@ -12,12 +12,7 @@ use starid_core::{geometry, Camera, Catalog, Identification, SimFrame, Status};
 
 const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
-/// `[w, x, y, z]` of a rotation, w ≥ 0.
-fn quaternion_wxyz(r: &Rotation3<f64>) -> [f64; 4] {
-    let q = UnitQuaternion::from_rotation_matrix(r);
-    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
-    [s * q.w, s * q.i, s * q.j, s * q.k]
-}
+use starid_core::geometry::quaternion_wxyz;
 
 /// A rotation's 3×3 matrix as an ndarray.
 fn matrix3(r: &Rotation3<f64>) -> Array2<f64> {

@@ -49,17 +49,24 @@ fn directions(
 
 /// Boresight from three (or more) stars' RA/Dec and their distances from the principal point.
 #[pyfunction]
-#[pyo3(signature = (radec_deg, distances_px, focal_px=None))]
+#[pyo3(signature = (radec_deg, distances_px, focal_px=None, focal_range_px=None))]
 pub fn boresight_from_distances<'py>(
     py: Python<'py>,
     radec_deg: PyReadonlyArray2<'py, f64>,
     distances_px: PyReadonlyArray1<'py, f64>,
     focal_px: Option<f64>,
+    focal_range_px: Option<(f64, f64)>,
 ) -> PyResult<Bound<'py, PyList>> {
     let stars = directions("radec_deg", &radec_deg)?;
     let a = convert::vector("distances_px", &distances_px, Some(stars.len()))?;
-    let sols = run_core(py, move || {
-        pointing::boresight_from_distances(&stars, &a, focal_px)
+    if focal_px.is_some() && focal_range_px.is_some() {
+        return Err(InvalidInputError::new_err(
+            "focal_range_px only applies when focal_px is not given",
+        ));
+    }
+    let sols = run_core(py, move || match focal_range_px {
+        Some(range) => pointing::boresight_from_distances_in_range(&stars, &a, range),
+        None => pointing::boresight_from_distances(&stars, &a, focal_px),
     })?;
     let out = PyList::empty(py);
     for s in &sols {
@@ -75,6 +82,8 @@ pub fn boresight_from_distances<'py>(
         d.set_item("ambiguous", s.ambiguous)?;
         d.set_item("degenerate", s.degenerate)?;
         d.set_item("condition", s.condition)?;
+        d.set_item("inconsistent", s.inconsistent)?;
+        d.set_item("boresight_sigma_rad_per_px", s.boresight_sigma_rad(1.0))?;
         match &s.unit_covariance {
             Some(c) => d.set_item("unit_covariance", matrix(py, c))?,
             None => d.set_item("unit_covariance", py.None())?,

@@ -48,11 +48,13 @@ use crate::error::{Error, Result};
 use crate::geometry::Camera;
 use crate::kvector::PairIndex;
 
+mod cache;
 mod magbins;
 mod pyramid;
 mod verify;
 mod voting;
 
+pub use cache::SolverCache;
 pub use magbins::MagPairIndex;
 
 pub use verify::binomial_tail;

@@ -1,0 +1,124 @@
+//! The solvers built for one catalogue, shared by every call: each pair index is built once,
+//! whichever thread asks first, and reused for every field of view it suits.
+
+use std::sync::{Arc, Mutex};
+
+use super::Solver;
+use crate::catalog::Catalog;
+use crate::error::Result;
+
+/// A cached index serves angles down to 1/`MAX_OVERSIZE` of its own: a larger index is
+/// correct but slower to query.
+pub const MAX_OVERSIZE: f64 = 1.25;
+
+/// New indexes are built this much wider than asked, so nearby fields of view share one.
+pub const BUILD_MARGIN: f64 = 1.02;
+
+/// Solvers of one catalogue, keyed by the largest angle their pair index covers.
+///
+/// # Example
+/// ```
+/// use std::sync::Arc;
+/// use starid_core::identify::SolverCache;
+/// let cat = Arc::new(starid_core::simulate::random_catalog(2000, 1.0, 6.0, 1).unwrap());
+/// let cache = SolverCache::new(cat);
+/// let a = cache.solver(12f64.to_radians()).unwrap();
+/// let b = cache.solver(11.5f64.to_radians()).unwrap();
+/// assert!(Arc::ptr_eq(&a, &b));
+/// assert_eq!(cache.len(), 1);
+/// ```
+#[derive(Debug)]
+pub struct SolverCache {
+    catalog: Arc<Catalog>,
+    solvers: Mutex<Vec<Arc<Solver>>>,
+    /// Held while an index is built, so that threads asking at once build it once.
+    building: Mutex<()>,
+}
+
+impl SolverCache {
+    /// An empty cache for `catalog`.
+    pub fn new(catalog: Arc<Catalog>) -> Self {
+        Self {
+            catalog,
+            solvers: Mutex::new(Vec::new()),
+            building: Mutex::new(()),
+        }
+    }
+
+    /// The catalogue.
+    pub fn catalog(&self) -> &Arc<Catalog> {
+        &self.catalog
+    }
+
+    /// Number of solvers built so far.
+    pub fn len(&self) -> usize {
+        self.lock().len()
+    }
+
+    /// Whether no solver was built yet.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Arc<Solver>>> {
+        // A panic while holding the lock leaves the vector intact: keep using it.
+        self.solvers.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    fn cached(&self, max_angle_rad: f64) -> Option<Arc<Solver>> {
+        self.lock()
+            .iter()
+            .find(|s| {
+                let m = s.pair_index().max_angle_rad();
+                m >= max_angle_rad && m <= MAX_OVERSIZE * max_angle_rad
+            })
+            .cloned()
+    }
+
+    /// A solver whose pair index covers `max_angle_rad` (the camera's diagonal field of view):
+    /// a cached one not much larger, or a new one built once however many threads ask.
+    ///
+    /// # Errors
+    /// As [`Solver::new`].
+    pub fn solver(&self, max_angle_rad: f64) -> Result<Arc<Solver>> {
+        if let Some(s) = self.cached(max_angle_rad) {
+            return Ok(s);
+        }
+        let _building = self
+            .building
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(s) = self.cached(max_angle_rad) {
+            return Ok(s);
+        }
+        let solver = Arc::new(Solver::new(
+            self.catalog.clone(),
+            max_angle_rad * BUILD_MARGIN,
+        )?);
+        self.lock().push(solver.clone());
+        Ok(solver)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn threads_asking_at_once_build_one_index() {
+        let cat = Arc::new(crate::simulate::random_catalog(3000, 1.0, 6.0, 2).unwrap());
+        let cache = SolverCache::new(cat);
+        let got: Vec<Arc<Solver>> = std::thread::scope(|s| {
+            let hs: Vec<_> = (0..8)
+                .map(|_| s.spawn(|| cache.solver(10f64.to_radians()).unwrap()))
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert_eq!(cache.len(), 1);
+        assert!(got.iter().all(|s| Arc::ptr_eq(s, &got[0])));
+        // A much smaller angle gets an index of its own.
+        let small = cache.solver(4f64.to_radians()).unwrap();
+        assert!(!Arc::ptr_eq(&small, &got[0]));
+        assert_eq!(cache.len(), 2);
+    }
+}
