@@ -24,6 +24,16 @@ const GAUSS_NEWTON_DONE_RAD: f64 = 1e-8;
 
 /// TRIAD: the rotation mapping `ref_a` onto `obs_a` exactly and the plane of (`ref_a`, `ref_b`)
 /// onto that of (`obs_a`, `obs_b`). `None` when either pair is parallel.
+///
+/// # Example
+/// ```
+/// use nalgebra::Vector3;
+/// use starid_core::attitude::triad;
+/// let r = starid_core::geometry::attitude_from_radec_roll(0.4, 0.2, 1.0);
+/// let (a, b) = (Vector3::new(1.0, 0.2, 0.1).normalize(), Vector3::new(0.1, 1.0, -0.3).normalize());
+/// let got = triad(&(r * a), &(r * b), &a, &b).unwrap();
+/// assert!(starid_core::geometry::rotation_angle_between(&got, &r) < 1e-12);
+/// ```
 pub fn triad(
     obs_a: &Vector3<f64>,
     obs_b: &Vector3<f64>,
@@ -49,6 +59,18 @@ pub fn triad(
 /// a previous fit); falls back to [`wahba_svd`] when a step fails or does not converge.
 ///
 /// Returns `None` as [`wahba_svd`] does.
+///
+/// # Example
+/// ```
+/// use nalgebra::{Rotation3, Vector3};
+/// use starid_core::attitude::wahba_from;
+/// let r = starid_core::geometry::attitude_from_radec_roll(2.0, -0.5, 0.3);
+/// let refs: Vec<Vector3<f64>> = (0..5).map(|k| Vector3::new(1.0, k as f64 * 0.1, 0.3).normalize()).collect();
+/// let obs: Vec<Vector3<f64>> = refs.iter().map(|v| r * v).collect();
+/// let start = r * Rotation3::from_euler_angles(0.01, -0.02, 0.01);
+/// let got = wahba_from(&obs, &refs, &start).unwrap();
+/// assert!(starid_core::geometry::rotation_angle_between(&got, &r) < 1e-10);
+/// ```
 pub fn wahba_from(
     obs_cam: &[Vector3<f64>],
     ref_icrs: &[Vector3<f64>],
@@ -91,6 +113,16 @@ pub fn wahba_from(
 ///
 /// Returns `None` with fewer than two pairs or when the directions do not fix a rotation
 /// (all parallel).
+///
+/// # Example
+/// ```
+/// use nalgebra::Vector3;
+/// let r = starid_core::geometry::attitude_from_radec_roll(2.0, -0.5, 0.3);
+/// let refs = [Vector3::x(), Vector3::y(), Vector3::new(0.0, 0.6, 0.8)];
+/// let obs: Vec<Vector3<f64>> = refs.iter().map(|v| r * v).collect();
+/// let got = starid_core::attitude::wahba_svd(&obs, &refs).unwrap();
+/// assert!(starid_core::geometry::rotation_angle_between(&got, &r) < 1e-12);
+/// ```
 pub fn wahba_svd(obs_cam: &[Vector3<f64>], ref_icrs: &[Vector3<f64>]) -> Option<Rotation3<f64>> {
     if obs_cam.len() < 2 || obs_cam.len() != ref_icrs.len() {
         return None;

@@ -186,6 +186,13 @@ impl Catalog {
     ///
     /// # Errors
     /// `Catalog { line }` for a malformed record, `Io` when reading fails.
+    ///
+    /// # Example
+    /// ```
+    /// let text = "id,ra_deg,dec_deg,mag\n1,10.0,20.0,3.5\n2,\"11.0\",21.0,4.0\n";
+    /// let cat = starid_core::Catalog::from_table(text.as_bytes()).unwrap();
+    /// assert_eq!(cat.ids(), &[1, 2]);
+    /// ```
     pub fn from_table(mut reader: impl BufRead) -> Result<Self> {
         let mut text = String::new();
         reader.read_to_string(&mut text)?;
@@ -242,6 +249,15 @@ impl Catalog {
     ///
     /// # Errors
     /// As [`Catalog::from_table`]; `Io` when the file cannot be opened.
+    ///
+    /// # Example
+    /// ```
+    /// let path = std::env::temp_dir().join("starid_doc_from_path.csv");
+    /// std::fs::write(&path, "1 10.0 20.0 3.5\n2 11.0 21.0 4.0\n").unwrap();
+    /// let cat = starid_core::Catalog::from_path(&path).unwrap();
+    /// assert_eq!(cat.len(), 2);
+    /// # std::fs::remove_file(path).ok();
+    /// ```
     pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let file = std::fs::File::open(path).map_err(|e| {
@@ -260,6 +276,15 @@ impl Catalog {
     ///
     /// # Errors
     /// `Catalog { line }` for a malformed record, `InvalidInput` for a non-finite limit or epoch.
+    ///
+    /// # Example
+    /// ```
+    /// // One hip2.dat record (HIP 32349, Sirius): HIP, solution type, ..., RA and Dec (radians), ...
+    /// let rec = " 32349  5 0 1  1.7678135641 -0.2917495242  379.21  -546.01 -1223.07   1.58   1.26   1.65   1.25   1.87 110  0.79  3  0.0   0  -1.0876 0.0004 0.020 0  0.009 0.001 -0.200   0.05   0.03   0.00   0.01  -0.06   0.00  -0.11   0.00   0.01   0.02   0.00   0.01  -0.00   0.02   0.00";
+    /// let cat = starid_core::Catalog::from_hip2(rec.as_bytes(), 6.5, 2000.0).unwrap();
+    /// assert_eq!(cat.ids(), &[32349]);
+    /// assert!((cat.ra_rad()[0].to_degrees() - 101.287).abs() < 0.01);
+    /// ```
     pub fn from_hip2(reader: impl BufRead, mag_limit: f64, epoch_year: f64) -> Result<Self> {
         if !mag_limit.is_finite() || !epoch_year.is_finite() {
             return Err(Error::invalid_input("mag_limit and epoch must be finite"));
@@ -317,6 +342,13 @@ impl Catalog {
     ///
     /// # Errors
     /// `InvalidInput` when the limit is NaN or keeps no star.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let bright = cat.filter_mag(3.0).unwrap();
+    /// assert!(bright.len() < cat.len() && bright.mag().iter().all(|&m| m <= 3.0));
+    /// ```
     pub fn filter_mag(&self, mag_limit: f64) -> Result<Self> {
         if mag_limit.is_nan() {
             return Err(Error::invalid_input("mag_limit is NaN"));
@@ -336,7 +368,7 @@ impl Catalog {
     ///
     /// # Panics
     /// If an index is out of range.
-    pub fn subset(&self, indices: &[usize]) -> Self {
+    pub(crate) fn subset(&self, indices: &[usize]) -> Self {
         Self::from_vectors(
             indices.iter().map(|&i| self.ids[i]).collect(),
             indices.iter().map(|&i| self.vectors[i]).collect(),
@@ -345,16 +377,34 @@ impl Catalog {
     }
 
     /// Number of stars.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![1, 2], &[0.0, 1.0], &[0.0, 1.0], vec![1.0, 2.0]).unwrap();
+    /// assert_eq!(cat.len(), 2);
+    /// ```
     pub fn len(&self) -> usize {
         self.ids.len()
     }
 
     /// Whether the catalogue is empty (never true for a constructed catalogue).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![1], &[0.0], &[0.0], vec![1.0]).unwrap();
+    /// assert!(!cat.is_empty()); // a catalogue always holds a star
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.ids.is_empty()
     }
 
     /// Catalogue ids.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![7, 9], &[0.0, 1.0], &[0.0, 1.0], vec![1.0, 2.0]).unwrap();
+    /// assert_eq!(cat.ids(), &[7, 9]);
+    /// ```
     pub fn ids(&self) -> &[i64] {
         &self.ids
     }
@@ -390,34 +440,53 @@ impl Catalog {
     }
 
     /// Right ascensions in radians, `[0, 2π)`.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![1], &[90.0], &[0.0], vec![1.0]).unwrap();
+    /// assert!((cat.ra_rad()[0] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    /// ```
     pub fn ra_rad(&self) -> &[f64] {
         &self.ra_rad
     }
 
     /// Declinations in radians.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![1], &[0.0], &[-30.0], vec![1.0]).unwrap();
+    /// assert!((cat.dec_rad()[0].to_degrees() + 30.0).abs() < 1e-12);
+    /// ```
     pub fn dec_rad(&self) -> &[f64] {
         &self.dec_rad
     }
 
     /// Magnitudes.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![1], &[0.0], &[0.0], vec![4.5]).unwrap();
+    /// assert_eq!(cat.mag(), &[4.5]);
+    /// ```
     pub fn mag(&self) -> &[f64] {
         &self.mag
     }
 
     /// ICRS unit vectors.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::new(vec![1], &[0.0], &[90.0], vec![1.0]).unwrap();
+    /// assert!((cat.vectors()[0].z - 1.0).abs() < 1e-12);
+    /// ```
     pub fn vectors(&self) -> &[Vector3<f64>] {
         &self.vectors
-    }
-
-    /// The spatial index over [`Catalog::vectors`].
-    pub fn zones(&self) -> &ZoneIndex {
-        &self.zones
     }
 
     /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
     /// `(index, cos_angle)`: through the cube-face grid for small radii, else the zones.
     #[inline]
-    pub fn nearest_two(&self, center: &Vector3<f64>, radius: Radius) -> (Option<Hit>, Option<Hit>) {
+    pub(crate) fn nearest_two(&self, center: &Vector3<f64>, radius: Radius) -> (Option<Hit>, Option<Hit>) {
         self.cells
             .nearest_two_within(center, radius)
             .unwrap_or_else(|| self.zones.nearest_two_within(&self.vectors, center, radius))
@@ -426,6 +495,14 @@ impl Catalog {
     /// Which stars are *locally bright*: fewer than `max_brighter` stars brighter than them lie
     /// within `radius_rad`. The few brightest stars of any field of about twice that width are
     /// almost always among them.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let bright = cat.locally_bright(5f64.to_radians(), 6);
+    /// assert_eq!(bright.len(), cat.len());
+    /// assert!(bright.iter().filter(|&&b| b).count() < cat.len());
+    /// ```
     pub fn locally_bright(&self, radius_rad: f64, max_brighter: usize) -> Vec<bool> {
         let per_star = |i: usize| -> bool {
             let m = self.mag[i];
@@ -453,7 +530,7 @@ impl Catalog {
     /// Calls `f(index, cos)` for every star within `radius_rad` of `center` (a unit vector),
     /// through the zone index whose height suits the radius.
     #[inline]
-    pub fn for_each_in_cone(
+    pub(crate) fn for_each_in_cone(
         &self,
         center: &Vector3<f64>,
         radius_rad: f64,
@@ -468,13 +545,21 @@ impl Catalog {
     }
 
     /// Number of stars within `radius_rad` of `center`.
-    pub fn count_in_cone(&self, center: &Vector3<f64>, radius_rad: f64) -> usize {
+    pub(crate) fn count_in_cone(&self, center: &Vector3<f64>, radius_rad: f64) -> usize {
         let mut n = 0;
         self.for_each_in_cone(center, radius_rad, |_, _| n += 1);
         n
     }
 
     /// Indices of the stars within `radius_rad` of `center`.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let centre = cat.vectors()[0];
+    /// let near = cat.in_cone(&centre, 3f64.to_radians());
+    /// assert!(near.contains(&0));
+    /// ```
     pub fn in_cone(&self, center: &Vector3<f64>, radius_rad: f64) -> Vec<u32> {
         let mut out = Vec::new();
         self.for_each_in_cone(center, radius_rad, |s, _| out.push(s));

@@ -30,6 +30,12 @@ pub struct Error {
 
 impl Error {
     /// Invalid argument with a message saying what is wrong.
+    ///
+    /// # Example
+    /// ```
+    /// let e = starid_core::Error::invalid_input("fov_deg must be positive");
+    /// assert_eq!(e.kind(), &starid_core::ErrorKind::InvalidInput);
+    /// ```
     pub fn invalid_input(message: impl Into<String>) -> Self {
         Self {
             kind: ErrorKind::InvalidInput,
@@ -38,6 +44,12 @@ impl Error {
     }
 
     /// Malformed catalogue, optionally at a 1-based line.
+    ///
+    /// # Example
+    /// ```
+    /// let e = starid_core::Error::catalog(Some(3), "mag is not a number");
+    /// assert_eq!(e.to_string(), "line 3: mag is not a number");
+    /// ```
     pub fn catalog(line: Option<usize>, message: impl Into<String>) -> Self {
         Self {
             kind: ErrorKind::Catalog { line },
@@ -46,11 +58,23 @@ impl Error {
     }
 
     /// The kind of error.
+    ///
+    /// # Example
+    /// ```
+    /// let e = starid_core::Catalog::from_table("1,0,95,1\n".as_bytes()).unwrap_err();
+    /// assert_eq!(e.kind(), &starid_core::ErrorKind::Catalog { line: Some(1) });
+    /// ```
     pub fn kind(&self) -> &ErrorKind {
         &self.kind
     }
 
     /// The message, without the kind.
+    ///
+    /// # Example
+    /// ```
+    /// let e = starid_core::Error::catalog(Some(3), "mag is not a number");
+    /// assert_eq!(e.message(), "mag is not a number");
+    /// ```
     pub fn message(&self) -> &str {
         &self.message
     }

@@ -11,6 +11,12 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use crate::error::{Error, Result};
 
 /// Unit vector of a direction given by right ascension and declination in radians.
+///
+/// # Example
+/// ```
+/// let v = starid_core::geometry::radec_to_unit(0.0, std::f64::consts::FRAC_PI_2);
+/// assert!((v.z - 1.0).abs() < 1e-12);
+/// ```
 #[inline]
 pub fn radec_to_unit(ra_rad: f64, dec_rad: f64) -> Vector3<f64> {
     let (sd, cd) = dec_rad.sin_cos();
@@ -19,6 +25,13 @@ pub fn radec_to_unit(ra_rad: f64, dec_rad: f64) -> Vector3<f64> {
 }
 
 /// Right ascension in `[0, 2π)` and declination in `[-π/2, π/2]` (radians) of a vector.
+///
+/// # Example
+/// ```
+/// use starid_core::geometry::{radec_to_unit, unit_to_radec};
+/// let (ra, dec) = unit_to_radec(&radec_to_unit(1.0, -0.5));
+/// assert!((ra - 1.0).abs() < 1e-12 && (dec + 0.5).abs() < 1e-12);
+/// ```
 #[inline]
 pub fn unit_to_radec(v: &Vector3<f64>) -> (f64, f64) {
     let n = v.norm();
@@ -34,6 +47,13 @@ pub fn unit_to_radec(v: &Vector3<f64>) -> (f64, f64) {
 }
 
 /// Angle between two vectors in radians, accurate at all angles (atan2 form).
+///
+/// # Example
+/// ```
+/// use nalgebra::Vector3;
+/// let a = starid_core::geometry::angle_between(&Vector3::x(), &Vector3::y());
+/// assert!((a - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+/// ```
 #[inline]
 pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     a.cross(b).norm().atan2(a.dot(b))
@@ -41,6 +61,14 @@ pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 
 /// Angle in radians of the rotation taking `a` to `b`, accurate for nearly equal rotations
 /// (where an arccos of the trace loses half the digits or returns NaN).
+///
+/// # Example
+/// ```
+/// use nalgebra::{Rotation3, Vector3};
+/// let a = Rotation3::identity();
+/// let b = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.25);
+/// assert!((starid_core::geometry::rotation_angle_between(&a, &b) - 0.25).abs() < 1e-12);
+/// ```
 pub fn rotation_angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
     let q = nalgebra::UnitQuaternion::from_rotation_matrix(&(a.inverse() * b));
     2.0 * q.imag().norm().atan2(q.w.abs())
@@ -180,12 +208,24 @@ impl Camera {
 
     /// Whether the principal point is the sensor centre and there is no distortion: the case
     /// the identification's fast paths assume.
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_fov(0.2, 512.0, 512.0).unwrap();
+    /// assert!(cam.is_ideal() && !cam.with_k1(0.01).unwrap().is_ideal());
+    /// ```
     pub fn is_ideal(&self) -> bool {
         self.k1 == 0.0
             && self.principal_point_px == [0.5 * self.width_px, 0.5 * self.height_px]
     }
 
     /// Full field of view across the width, radians (of the pinhole, ignoring distortion).
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 2000.0, 1000.0).unwrap();
+    /// assert!((cam.fov_rad() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    /// ```
     pub fn fov_rad(&self) -> f64 {
         2.0 * (0.5 * self.width_px / self.focal_length_px).atan()
     }
@@ -193,6 +233,12 @@ impl Camera {
     /// Full field of view across the diagonal, radians: the largest angle two stars of one
     /// frame can span (of the pinhole; with barrel distortion, of the sensor's farther corner
     /// from the principal point, whichever is larger).
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// assert!((cam.diagonal_fov_rad().to_degrees() - 16.9).abs() < 0.1);
+    /// ```
     pub fn diagonal_fov_rad(&self) -> f64 {
         let half_diag = 0.5 * self.width_px.hypot(self.height_px);
         let pinhole = 2.0 * (half_diag / self.focal_length_px).atan();
@@ -213,6 +259,12 @@ impl Camera {
     }
 
     /// Pixel of normalised camera coordinates `(u, v) = (X/Z, Y/Z)`.
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 1000.0, 1000.0).unwrap();
+    /// assert_eq!(cam.normalized_to_pixel(0.1, -0.2), (600.0, 300.0));
+    /// ```
     #[inline]
     pub fn normalized_to_pixel(&self, u: f64, v: f64) -> (f64, f64) {
         let g = 1.0 + self.k1 * (u * u + v * v);
@@ -225,6 +277,14 @@ impl Camera {
 
     /// Normalised camera coordinates `(u, v)` of a pixel (inverting the distortion by Newton's
     /// method; exact without distortion).
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 1000.0, 1000.0).unwrap().with_k1(0.1).unwrap();
+    /// let (x, y) = cam.normalized_to_pixel(0.3, 0.2);
+    /// let (u, v) = cam.pixel_to_normalized(x, y);
+    /// assert!((u - 0.3).abs() < 1e-12 && (v - 0.2).abs() < 1e-12);
+    /// ```
     #[inline]
     pub fn pixel_to_normalized(&self, x: f64, y: f64) -> (f64, f64) {
         let (du, dv) = (
@@ -258,6 +318,15 @@ impl Camera {
 
     /// Unit vector in the camera frame of pixel `(x, y)`. `mirrored` reads the pixel of a
     /// mirrored frame: the camera's image with x reversed about the sensor (`x → W − x`).
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 1000.0, 1000.0).unwrap();
+    /// let v = cam.pixel_to_cam(500.0, 500.0, false);
+    /// assert!((v.z - 1.0).abs() < 1e-12);
+    /// let m = cam.pixel_to_cam(600.0, 500.0, true);
+    /// assert!(m.x < 0.0); // a mirrored frame reads x from the other side
+    /// ```
     #[inline]
     pub fn pixel_to_cam(&self, x: f64, y: f64, mirrored: bool) -> Vector3<f64> {
         let x = if mirrored { self.width_px - x } else { x };
@@ -266,6 +335,14 @@ impl Camera {
     }
 
     /// Pixel of a camera-frame direction, or `None` behind the camera.
+    ///
+    /// # Example
+    /// ```
+    /// use nalgebra::Vector3;
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 1000.0, 1000.0).unwrap();
+    /// assert_eq!(cam.cam_to_pixel(&Vector3::new(0.1, 0.0, 1.0)), Some((600.0, 500.0)));
+    /// assert_eq!(cam.cam_to_pixel(&Vector3::new(0.0, 0.0, -1.0)), None);
+    /// ```
     #[inline]
     pub fn cam_to_pixel(&self, v_cam: &Vector3<f64>) -> Option<(f64, f64)> {
         if v_cam.z <= 0.0 {
@@ -331,6 +408,15 @@ pub fn rotation_from_wxyz(q: [f64; 4]) -> Result<Rotation3<f64>> {
 /// At roll 0 the image's up direction (−y) points to celestial north and +x to the west
 /// (east is left, as on the sky seen from inside the sphere); increasing roll turns the camera's
 /// +x axis toward its +y axis.
+///
+/// # Example
+/// ```
+/// use starid_core::geometry::{attitude_from_radec_roll, radec_to_unit};
+/// let r = attitude_from_radec_roll(1.0, 0.5, 0.0);
+/// // The boresight direction maps to the camera's +z.
+/// let z = r * radec_to_unit(1.0, 0.5);
+/// assert!((z.z - 1.0).abs() < 1e-12);
+/// ```
 pub fn attitude_from_radec_roll(ra_rad: f64, dec_rad: f64, roll_rad: f64) -> Rotation3<f64> {
     let (x0, y0, z) = zero_roll_axes(ra_rad, dec_rad);
     let (s, c) = roll_rad.sin_cos();
@@ -345,6 +431,13 @@ pub fn attitude_from_radec_roll(ra_rad: f64, dec_rad: f64, roll_rad: f64) -> Rot
 
 /// Boresight RA, Dec and roll (radians, RA and roll in `[0, 2π)`) of an attitude; inverse of
 /// [`attitude_from_radec_roll`].
+///
+/// # Example
+/// ```
+/// use starid_core::geometry::{attitude_from_radec_roll, radec_roll_from_attitude};
+/// let (ra, dec, roll) = radec_roll_from_attitude(&attitude_from_radec_roll(1.0, 0.5, 2.0));
+/// assert!((ra - 1.0).abs() < 1e-12 && (dec - 0.5).abs() < 1e-12 && (roll - 2.0).abs() < 1e-12);
+/// ```
 pub fn radec_roll_from_attitude(r_icrs_to_cam: &Rotation3<f64>) -> (f64, f64, f64) {
     let m = r_icrs_to_cam.matrix();
     let z: Vector3<f64> = m.row(2).transpose();
@@ -376,6 +469,13 @@ pub fn east_north(ra_rad: f64, dec_rad: f64) -> (Vector3<f64>, Vector3<f64>) {
 }
 
 /// Local east and north at the direction `d` (unit vector), as [`east_north`] of its RA/Dec.
+///
+/// # Example
+/// ```
+/// use starid_core::geometry::{east_north_at, radec_to_unit};
+/// let (e, n) = east_north_at(&radec_to_unit(0.0, 0.0));
+/// assert!((e.y - 1.0).abs() < 1e-12 && (n.z - 1.0).abs() < 1e-12);
+/// ```
 pub fn east_north_at(d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let (ra, dec) = unit_to_radec(d);
     east_north(ra, dec)

@@ -42,6 +42,13 @@ pub const MAX_TRIALS: usize = 10_000_000;
 ///
 /// # Errors
 /// `InvalidInput` when the limit is NaN or keeps no star.
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+/// let g = starid_core::guide::select_magnitude(&cat, 4.0).unwrap();
+/// assert!(g.mag().iter().all(|&m| m <= 4.0));
+/// ```
 pub fn select_magnitude(catalog: &Catalog, mag_limit: f64) -> Result<Catalog> {
     catalog.filter_mag(mag_limit)
 }
@@ -63,6 +70,14 @@ pub enum DoubleRule {
 ///
 /// # Errors
 /// `InvalidInput` when the separation is not in (0, π).
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+/// use starid_core::guide::{thin_doubles, DoubleRule};
+/// let g = thin_doubles(&cat, 0.5f64.to_radians(), DoubleRule::KeepBrighter).unwrap();
+/// assert!(g.len() <= cat.len());
+/// ```
 pub fn thin_doubles(
     catalog: &Catalog,
     min_separation_rad: f64,
@@ -126,6 +141,13 @@ pub fn thin_doubles(
 ///
 /// # Errors
 /// `InvalidInput` when the cell size is not in (0, π].
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+/// let g = starid_core::guide::select_rectangle(&cat, 10f64.to_radians()).unwrap();
+/// assert!(g.len() < cat.len());
+/// ```
 pub fn select_rectangle(catalog: &Catalog, cell_rad: f64) -> Result<Catalog> {
     if !cell_rad.is_finite() || cell_rad <= 0.0 || cell_rad > PI {
         return Err(Error::invalid_input(format!(
@@ -159,6 +181,11 @@ pub enum QtmRule {
 }
 
 /// Number of triangles of QTM level `level` (1-based): `8·4^(level−1)`.
+///
+/// # Example
+/// ```
+/// assert_eq!(starid_core::guide::qtm_triangle_count(3), 128);
+/// ```
 pub fn qtm_triangle_count(level: u32) -> u64 {
     8u64 << (2 * level.saturating_sub(1))
 }
@@ -169,6 +196,13 @@ pub fn qtm_triangle_count(level: u32) -> u64 {
 ///
 /// # Errors
 /// `InvalidInput` when the level is not in `1..=QTM_MAX_LEVEL`.
+///
+/// # Example
+/// ```
+/// let (id, corners) = starid_core::guide::qtm_triangle(&nalgebra::Vector3::new(0.3, 0.2, 0.9), 4).unwrap();
+/// assert!(id < starid_core::guide::qtm_triangle_count(4));
+/// assert!(corners.iter().all(|c| (c.norm() - 1.0).abs() < 1e-12));
+/// ```
 pub fn qtm_triangle(v: &Vector3<f64>, level: u32) -> Result<(u64, [Vector3<f64>; 3])> {
     check_level(level)?;
     Ok(locate(v, level))
@@ -230,6 +264,14 @@ fn projected_incentre(t: &[Vector3<f64>; 3]) -> Vector3<f64> {
 ///
 /// # Errors
 /// `InvalidInput` when the level is not in `1..=QTM_MAX_LEVEL`.
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+/// use starid_core::guide::{select_qtm, QtmRule};
+/// let g = select_qtm(&cat, 3, QtmRule::Weighted).unwrap();
+/// assert!(g.len() <= 128);
+/// ```
 pub fn select_qtm(catalog: &Catalog, level: u32, rule: QtmRule) -> Result<Catalog> {
     check_level(level)?;
     let score = |i: usize| -> (u64, f64) {
@@ -278,6 +320,13 @@ fn best_per_cell(catalog: &Catalog, cells: impl IntoIterator<Item = (u64, f64)>)
 ///
 /// # Errors
 /// `InvalidInput` for a catalogue of fewer than two stars.
+///
+/// # Example
+/// ```
+/// let cat = starid_core::Catalog::new(vec![1, 2, 3], &[0.0, 1.0, 10.0], &[0.0; 3], vec![1.0; 3]).unwrap();
+/// let nn = starid_core::guide::nearest_neighbour_angles(&cat).unwrap();
+/// assert!((nn[2].to_degrees() - 9.0).abs() < 1e-9);
+/// ```
 pub fn nearest_neighbour_angles(catalog: &Catalog) -> Result<Vec<f64>> {
     let n = catalog.len();
     if n < 2 {
@@ -351,6 +400,12 @@ impl Field {
     }
 
     /// The same shape with another field of view.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::guide::Field;
+    /// assert_eq!(Field::Square { fov_rad: 0.1 }.with_fov(0.2), Field::Square { fov_rad: 0.2 });
+    /// ```
     pub fn with_fov(self, fov_rad: f64) -> Self {
         match self {
             Field::Circle { .. } => Field::Circle { fov_rad },
@@ -359,6 +414,13 @@ impl Field {
     }
 
     /// The largest angle between two stars of one field, radians.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::guide::Field;
+    /// let square = Field::Square { fov_rad: 10f64.to_radians() };
+    /// assert!(square.max_pair_angle_rad() > 10f64.to_radians()); // the diagonal
+    /// ```
     pub fn max_pair_angle_rad(&self) -> f64 {
         match *self {
             Field::Circle { fov_rad } => fov_rad,
@@ -373,6 +435,14 @@ impl Field {
 ///
 /// # Errors
 /// `InvalidInput` for an invalid field or `trials` not in `1..=MAX_TRIALS`.
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+/// use starid_core::guide::{field_star_counts, Field};
+/// let hist = field_star_counts(&cat, Field::Circle { fov_rad: 0.2 }, 1000, 7).unwrap();
+/// assert_eq!(hist.iter().sum::<u64>(), 1000);
+/// ```
 pub fn field_star_counts(
     catalog: &Catalog,
     field: Field,
@@ -468,17 +538,38 @@ pub struct GuideMetrics {
 
 impl GuideMetrics {
     /// Number of Monte Carlo fields.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let m = starid_core::guide::metrics(&cat, starid_core::guide::Field::Circle { fov_rad: 0.2 }, 500, 1).unwrap();
+    /// assert_eq!(m.trials(), 500);
+    /// ```
     pub fn trials(&self) -> u64 {
         self.stars_per_field.iter().sum()
     }
 
     /// Fraction of fields holding at least `k` stars.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let m = starid_core::guide::metrics(&cat, starid_core::guide::Field::Circle { fov_rad: 0.2 }, 500, 1).unwrap();
+    /// assert!(m.p_at_least(0) == 1.0 && m.p_at_least(1) <= 1.0);
+    /// ```
     pub fn p_at_least(&self, k: usize) -> f64 {
         let hit: u64 = self.stars_per_field.iter().skip(k).sum();
         hit as f64 / self.trials() as f64
     }
 
     /// Mean number of stars per field.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let m = starid_core::guide::metrics(&cat, starid_core::guide::Field::Circle { fov_rad: 0.2 }, 500, 1).unwrap();
+    /// assert!(m.mean_stars_per_field() > 0.0);
+    /// ```
     pub fn mean_stars_per_field(&self) -> f64 {
         let total: u64 = self
             .stars_per_field
@@ -495,6 +586,14 @@ impl GuideMetrics {
 ///
 /// # Errors
 /// As [`nearest_neighbour_angles`] and [`field_star_counts`].
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+/// let m = starid_core::guide::metrics(&cat, starid_core::guide::Field::Circle { fov_rad: 0.2 }, 500, 1).unwrap();
+/// assert_eq!(m.count, 3000);
+/// assert!(m.nn_min_rad <= m.nn_mean_rad && m.pairs > 0);
+/// ```
 pub fn metrics(catalog: &Catalog, field: Field, trials: usize, seed: u64) -> Result<GuideMetrics> {
     let nn = nearest_neighbour_angles(catalog)?;
     let stars_per_field = field_star_counts(catalog, field, trials, seed)?;

@@ -83,6 +83,13 @@ impl PairIndex {
     ///
     /// # Errors
     /// `InvalidInput` when the angle is not in (0, π) or the index would exceed [`MAX_PAIRS`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// assert!(idx.len() > 0 && idx.max_angle_rad() >= 0.2);
+    /// ```
     pub fn build(catalog: &Catalog, max_angle_rad: f64) -> Result<Self> {
         Self::build_among(catalog, max_angle_rad, None)
     }
@@ -92,6 +99,15 @@ impl PairIndex {
     ///
     /// # Errors
     /// As [`PairIndex::build`]; `InvalidInput` when `members` does not have one entry per star.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let members: Vec<bool> = cat.mag().iter().map(|&m| m < 4.0).collect();
+    /// let some = starid_core::PairIndex::build_among(&cat, 0.2, Some(&members)).unwrap();
+    /// let all = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// assert!(some.len() < all.len());
+    /// ```
     pub fn build_among(
         catalog: &Catalog,
         max_angle_rad: f64,
@@ -184,6 +200,15 @@ impl PairIndex {
     }
 
     /// Positions in [`PairIndex::pairs`] of every pair with separation in `[lo_rad, hi_rad]`.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// let r = idx.range(0.10, 0.11);
+    /// // The range may hold a few pairs just outside [lo, hi]: check the angles.
+    /// assert!(idx.angles(r.clone()).iter().filter(|&&a| (0.10..=0.11).contains(&(a as f64))).count() > 0);
+    /// ```
     pub fn range(&self, lo_rad: f64, hi_rad: f64) -> Range<usize> {
         let n = self.angles.len();
         if n == 0 || hi_rad < lo_rad {
@@ -212,6 +237,17 @@ impl PairIndex {
     ///
     /// # Panics
     /// If `range` exceeds the index.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// let r = idx.range(0.10, 0.11);
+    /// for ([i, j], a) in idx.pairs(r.clone()).zip(idx.angles(r)) {
+    ///     let exact = starid_core::geometry::angle_between(&cat.vectors()[i as usize], &cat.vectors()[j as usize]);
+    ///     assert!((exact - *a as f64).abs() < 1e-6);
+    /// }
+    /// ```
     pub fn pairs(&self, range: Range<usize>) -> Pairs<'_> {
         match &self.pairs {
             PairStore::Narrow(p) => Pairs::Narrow(p[range].iter()),
@@ -220,26 +256,59 @@ impl PairIndex {
     }
 
     /// Separation in radians of the pairs at `range`.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// let a = idx.angles(idx.range(0.0, 0.2));
+    /// assert!(a.windows(2).all(|w| w[0] <= w[1])); // sorted by angle
+    /// ```
     pub fn angles(&self, range: Range<usize>) -> &[f32] {
         &self.angles[range]
     }
 
     /// Number of pairs.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// assert!(starid_core::PairIndex::build(&cat, 0.1).unwrap().len() < starid_core::PairIndex::build(&cat, 0.2).unwrap().len());
+    /// ```
     pub fn len(&self) -> usize {
         self.angles.len()
     }
 
     /// Whether no pair is indexed.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// assert!(!starid_core::PairIndex::build(&cat, 0.2).unwrap().is_empty());
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.angles.is_empty()
     }
 
     /// Largest indexed separation, radians.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// assert_eq!(starid_core::PairIndex::build(&cat, 0.2).unwrap().max_angle_rad(), 0.2);
+    /// ```
     pub fn max_angle_rad(&self) -> f64 {
         self.max_angle_rad
     }
 
     /// Heap memory in bytes.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// assert!(idx.memory_bytes() >= 8 * idx.len());
+    /// ```
     pub fn memory_bytes(&self) -> usize {
         let pair_bytes = match &self.pairs {
             PairStore::Narrow(p) => p.len() * 4,
@@ -250,14 +319,14 @@ impl PairIndex {
 
     /// Heap memory in bytes of an index holding `n_pairs` pairs of a catalogue of `n_stars`
     /// stars, without building it.
-    pub fn memory_bytes_for(n_pairs: usize, n_stars: usize) -> usize {
+    pub(crate) fn memory_bytes_for(n_pairs: usize, n_stars: usize) -> usize {
         let per_pair = if n_stars <= NARROW_PAIR_STARS { 8 } else { 12 };
         n_pairs * per_pair + (n_pairs / PAIRS_PER_BIN).max(2) * 4
     }
 
     /// Number of pairs of `catalog` separated by at most `max_angle_rad`: the size of the index
     /// [`PairIndex::build`] would make, counted without storing a pair.
-    pub fn count_pairs(catalog: &Catalog, max_angle_rad: f64) -> usize {
+    pub(crate) fn count_pairs(catalog: &Catalog, max_angle_rad: f64) -> usize {
         let vectors = catalog.vectors();
         let per_star = |i: usize| -> usize {
             let mut n = 0;

@@ -61,10 +61,10 @@ pub mod geometry;
 pub mod guide;
 pub mod identify;
 pub mod kvector;
-pub mod lsq;
+pub(crate) mod lsq;
 pub mod pointing;
 pub mod simulate;
-pub mod sky;
+pub(crate) mod sky;
 pub mod unknown_focal;
 
 pub use catalog::Catalog;

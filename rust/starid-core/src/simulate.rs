@@ -99,6 +99,11 @@ impl Family {
     pub const ALL: [Family; 3] = [Family::K1, Family::K2, Family::K3];
 
     /// Short name: `K1`, `K2`, `K3`.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::Family::K2.name(), "K2");
+    /// ```
     pub fn name(self) -> &'static str {
         match self {
             Self::K1 => "K1",
@@ -111,6 +116,11 @@ impl Family {
     ///
     /// # Errors
     /// `InvalidInput` for an unknown name.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::Family::from_name("k1").unwrap(), starid_core::Family::K1);
+    /// ```
     pub fn from_name(name: &str) -> Result<Self> {
         Self::ALL
             .into_iter()
@@ -121,6 +131,11 @@ impl Family {
     }
 
     /// The family's camera.
+    ///
+    /// # Example
+    /// ```
+    /// assert!(starid_core::Family::K1.camera().fov_rad() > 0.0);
+    /// ```
     pub fn camera(self) -> Camera {
         let c = match self {
             Self::K1 => Camera::from_fov(10f64.to_radians(), 1920.0, 1440.0),
@@ -131,6 +146,11 @@ impl Family {
     }
 
     /// Faintest catalogue magnitude the family is meant to be identified against (Hp or V).
+    ///
+    /// # Example
+    /// ```
+    /// assert!(starid_core::Family::K1.catalog_mag_limit() > 5.0);
+    /// ```
     pub fn catalog_mag_limit(self) -> f64 {
         match self {
             Self::K1 => 6.5,
@@ -140,6 +160,11 @@ impl Family {
     }
 
     /// What scene `seed` of the family simulates (odd seeds mirrored).
+    ///
+    /// # Example
+    /// ```
+    /// assert!(starid_core::Family::K1.sim_config(3).false_stars_max.is_some());
+    /// ```
     pub fn sim_config(self, seed: u64) -> SimConfig {
         let base = SimConfig {
             noise_px: 0.2,
@@ -178,6 +203,13 @@ impl Family {
     ///
     /// # Errors
     /// As [`simulate`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(20_000, 1.0, 7.5, 1).unwrap();
+    /// let frame = starid_core::Family::K2.simulate(&cat, 5).unwrap();
+    /// assert!(!frame.centroids.is_empty());
+    /// ```
     pub fn simulate(self, catalog: &Catalog, seed: u64) -> Result<SimFrame> {
         simulate(catalog, &self.camera(), &self.sim_config(seed), seed)
     }
@@ -200,6 +232,15 @@ pub struct SimFrame {
 
 impl SimFrame {
     /// Number of real (catalogue) stars in the frame.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(8000, 1.0, 6.5, 1).unwrap();
+    /// let cam = starid_core::Camera::from_fov(0.2, 512.0, 512.0).unwrap();
+    /// let cfg = starid_core::SimConfig { false_stars: 3, ..Default::default() };
+    /// let frame = starid_core::simulate(&cat, &cam, &cfg, 1).unwrap();
+    /// assert_eq!(frame.real_stars() + 3, frame.centroids.len());
+    /// ```
     pub fn real_stars(&self) -> usize {
         self.catalog_index.iter().filter(|c| c.is_some()).count()
     }
@@ -210,6 +251,13 @@ impl SimFrame {
 ///
 /// # Errors
 /// `InvalidInput` for zero stars or a magnitude range that is not finite and ordered.
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(100, 2.0, 5.0, 9).unwrap();
+/// assert_eq!(cat.len(), 100);
+/// assert!(cat.mag().iter().all(|m| (2.0..=5.0).contains(m)));
+/// ```
 pub fn random_catalog(n_stars: usize, mag_lo: f64, mag_hi: f64, seed: u64) -> Result<Catalog> {
     if n_stars == 0 || !mag_lo.is_finite() || !mag_hi.is_finite() || mag_lo > mag_hi {
         return Err(Error::invalid_input(
@@ -233,6 +281,13 @@ pub fn random_catalog(n_stars: usize, mag_lo: f64, mag_hi: f64, seed: u64) -> Re
 }
 
 /// A uniformly distributed random rotation.
+///
+/// # Example
+/// ```
+/// use rand::SeedableRng;
+/// let r = starid_core::simulate::random_rotation(&mut rand::rngs::StdRng::seed_from_u64(1));
+/// assert!((r.matrix().determinant() - 1.0).abs() < 1e-12);
+/// ```
 pub fn random_rotation(rng: &mut impl Rng) -> Rotation3<f64> {
     let v = Vector4::from_fn(|_, _| StandardNormal.sample(rng));
     let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(v));
@@ -244,6 +299,15 @@ pub fn random_rotation(rng: &mut impl Rng) -> Rotation3<f64> {
 /// # Errors
 /// `InvalidInput` for negative or non-finite noise, a drop fraction outside [0, 1] or more
 /// than 100 000 false stars.
+///
+/// # Example
+/// ```
+/// let cat = starid_core::simulate::random_catalog(8000, 1.0, 6.5, 1).unwrap();
+/// let cam = starid_core::Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+/// let frame = starid_core::simulate(&cat, &cam, &starid_core::SimConfig { noise_px: 0.3, ..Default::default() }, 7).unwrap();
+/// assert_eq!(frame.centroids.len(), frame.magnitudes.len());
+/// assert!(frame.centroids.iter().all(|p| (0.0..512.0).contains(&p[0]) && (0.0..512.0).contains(&p[1])));
+/// ```
 pub fn simulate(
     catalog: &Catalog,
     camera: &Camera,

@@ -30,10 +30,6 @@ impl Radius {
         Self { rad, cos, sin }
     }
 
-    /// The radius in radians.
-    pub fn rad(&self) -> f64 {
-        self.rad
-    }
 }
 
 /// Zone index over a set of unit vectors.
@@ -82,11 +78,6 @@ impl ZoneIndex {
         self.zone_start.len() - 1
     }
 
-    /// Heap memory in bytes.
-    pub fn memory_bytes(&self) -> usize {
-        self.zone_start.len() * 4 + self.order.len() * 4 + self.ra_rad.len() * 8
-    }
-
     /// Calls `f(index, cos)` for every star within `radius_rad` of `center` (a unit vector);
     /// `vectors` must be the vectors the index was built over.
     pub fn for_each_in_cone(
@@ -115,18 +106,8 @@ impl ZoneIndex {
         });
     }
 
-    /// The nearest star within `radius_rad` of `center` and the second nearest, as
-    /// `(index, cos_angle)`; either may be `None`.
-    pub fn nearest_two(
-        &self,
-        vectors: &[Vector3<f64>],
-        center: &Vector3<f64>,
-        radius_rad: f64,
-    ) -> (Option<Hit>, Option<Hit>) {
-        self.nearest_two_within(vectors, center, Radius::new(radius_rad))
-    }
-
-    /// [`ZoneIndex::nearest_two`] with a precomputed [`Radius`].
+    /// The nearest star within `radius` of `center` and the second nearest, as
+    /// `(index, cos_angle)`; either may be `None`. With a precomputed [`Radius`].
     pub fn nearest_two_within(
         &self,
         vectors: &[Vector3<f64>],
@@ -268,11 +249,6 @@ impl CellIndex {
             stars,
             vectors,
         }
-    }
-
-    /// Heap memory in bytes.
-    pub fn memory_bytes(&self) -> usize {
-        self.cell_start.len() * 4 + self.stars.len() * 4 + self.vectors.len() * 24
     }
 
     /// The nearest and second nearest star within `radius` of `center` (a unit vector), as

@@ -87,6 +87,22 @@ impl Solver {
     /// # Errors
     /// As [`Solver::identify`]; `InvalidInput` for a focal range that is not positive, finite
     /// and ordered, or wider in field than the pair index covers.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let truth = Camera::from_fov(15f64.to_radians(), 1024.0, 1024.0).unwrap();
+    /// let frame = simulate(&cat, &truth, &SimConfig { noise_px: 0.2, ..Default::default() }, 4).unwrap();
+    /// let widest = Camera::from_fov(20f64.to_radians(), 1024.0, 1024.0).unwrap();
+    /// let narrowest = Camera::from_fov(10f64.to_radians(), 1024.0, 1024.0).unwrap();
+    /// let solver = Solver::for_camera(cat, &widest).unwrap();
+    /// let range = (widest.focal_length_px, narrowest.focal_length_px);
+    /// let r = solver.identify_unknown_focal(&frame.centroids, None, 1024.0, 1024.0, range, &IdentifyConfig::default()).unwrap();
+    /// if let Some(cam) = r.camera {
+    ///     assert!((cam.fov_rad().to_degrees() - 15.0).abs() < 0.1);
+    /// }
+    /// ```
     pub fn identify_unknown_focal(
         &self,
         centroids: &[[f64; 2]],

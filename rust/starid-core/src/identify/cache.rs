@@ -37,6 +37,13 @@ pub struct SolverCache {
 
 impl SolverCache {
     /// An empty cache for `catalog`.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cache = starid_core::identify::SolverCache::new(std::sync::Arc::new(cat));
+    /// assert!(cache.is_empty());
+    /// ```
     pub fn new(catalog: Arc<Catalog>) -> Self {
         Self {
             catalog,
@@ -46,16 +53,38 @@ impl SolverCache {
     }
 
     /// The catalogue.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cache = starid_core::identify::SolverCache::new(std::sync::Arc::new(cat));
+    /// assert_eq!(cache.catalog().len(), 3000);
+    /// ```
     pub fn catalog(&self) -> &Arc<Catalog> {
         &self.catalog
     }
 
     /// Number of solvers built so far.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cache = starid_core::identify::SolverCache::new(std::sync::Arc::new(cat));
+    /// cache.solver(0.2).unwrap();
+    /// assert_eq!(cache.len(), 1);
+    /// ```
     pub fn len(&self) -> usize {
         self.lock().len()
     }
 
     /// Whether no solver was built yet.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cache = starid_core::identify::SolverCache::new(std::sync::Arc::new(cat));
+    /// assert!(cache.is_empty());
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -80,6 +109,14 @@ impl SolverCache {
     ///
     /// # Errors
     /// As [`Solver::new`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cache = starid_core::identify::SolverCache::new(std::sync::Arc::new(cat));
+    /// let s = cache.solver(0.2).unwrap();
+    /// assert!(s.pair_index().max_angle_rad() >= 0.2);
+    /// ```
     pub fn solver(&self, max_angle_rad: f64) -> Result<Arc<Solver>> {
         if let Some(s) = self.cached(max_angle_rad) {
             return Ok(s);

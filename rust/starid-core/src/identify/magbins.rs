@@ -25,6 +25,16 @@ pub struct MagPairIndex {
 
 impl MagPairIndex {
     /// Split `pairs` (over a catalogue with magnitudes `mags`) by the bins of their stars.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// use starid_core::{identify::MagPairIndex, PairIndex};
+    /// let pairs = PairIndex::build(&cat, 0.2).unwrap();
+    /// let mags: Vec<f32> = cat.mag().iter().map(|&m| m as f32).collect();
+    /// let idx = MagPairIndex::build(&pairs, &mags);
+    /// assert!(idx.memory_bytes() > 0);
+    /// ```
     pub fn build(pairs: &PairIndex, mags: &[f32]) -> Self {
         let mut sorted = mags.to_vec();
         sorted.sort_unstable_by(f32::total_cmp);
@@ -51,19 +61,14 @@ impl MagPairIndex {
     }
 
     /// Bins overlapping the magnitude window `[lo, hi]`.
-    pub fn bins(&self, window: [f32; 2]) -> Range<usize> {
+    pub(crate) fn bins(&self, window: [f32; 2]) -> Range<usize> {
         let lo = self.edges.partition_point(|&e| e <= window[0]);
         let hi = self.edges.partition_point(|&e| e <= window[1]);
         lo..hi + 1
     }
 
-    /// The sub-index `id` (as passed by [`MagPairIndex::for_each_sub`]).
-    pub fn sub(&self, id: usize) -> &PairIndex {
-        &self.subs[id]
-    }
-
     /// The ids of the sub-indexes to read for two centroids with bin runs `a` and `b`, each once.
-    pub fn for_each_sub(&self, a: Range<usize>, b: Range<usize>, mut f: impl FnMut(usize, &PairIndex)) {
+    pub(crate) fn for_each_sub(&self, a: Range<usize>, b: Range<usize>, mut f: impl FnMut(usize, &PairIndex)) {
         for x in a.clone() {
             for y in b.clone() {
                 let (lo, hi) = (x.min(y), x.max(y));
@@ -78,6 +83,15 @@ impl MagPairIndex {
     }
 
     /// Heap memory in bytes.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// use starid_core::{identify::MagPairIndex, PairIndex};
+    /// let pairs = PairIndex::build(&cat, 0.2).unwrap();
+    /// let mags: Vec<f32> = cat.mag().iter().map(|&m| m as f32).collect();
+    /// assert!(MagPairIndex::build(&pairs, &mags).memory_bytes() >= pairs.memory_bytes());
+    /// ```
     pub fn memory_bytes(&self) -> usize {
         self.subs.iter().map(PairIndex::memory_bytes).sum::<usize>() + self.edges.len() * 4
     }

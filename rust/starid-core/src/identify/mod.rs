@@ -54,10 +54,10 @@ mod pyramid;
 mod verify;
 mod voting;
 
+pub(crate) use verify::binomial_tail;
 pub use cache::SolverCache;
 pub use magbins::MagPairIndex;
 
-pub use verify::binomial_tail;
 
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
@@ -201,6 +201,11 @@ impl Method {
     pub const ALL: [Method; 3] = [Method::Auto, Method::Pyramid, Method::Voting];
 
     /// Lower-case name: `auto`, `pyramid`, `voting`.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::Method::Voting.name(), "voting");
+    /// ```
     pub fn name(self) -> &'static str {
         match self {
             Self::Auto => "auto",
@@ -210,6 +215,11 @@ impl Method {
     }
 
     /// One line on what the method does.
+    ///
+    /// # Example
+    /// ```
+    /// assert!(!starid_core::Method::Pyramid.description().is_empty());
+    /// ```
     pub fn description(self) -> &'static str {
         match self {
             Self::Auto => "Pyramid, brightest first; magnitude-gated over every spot when false stars crowd the frame",
@@ -222,6 +232,13 @@ impl Method {
     ///
     /// # Errors
     /// `InvalidInput` naming the known methods.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::Method;
+    /// assert_eq!(Method::from_name("Pyramid").unwrap(), Method::Pyramid);
+    /// assert!(Method::from_name("guess").is_err());
+    /// ```
     pub fn from_name(name: &str) -> Result<Self> {
         Self::ALL
             .into_iter()
@@ -259,6 +276,13 @@ impl IdentifyConfig {
     ///
     /// # Errors
     /// `InvalidInput` naming the first setting out of its domain.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::IdentifyConfig;
+    /// assert!(IdentifyConfig::default().validate().is_ok());
+    /// assert!(IdentifyConfig { min_matches: 2, ..Default::default() }.validate().is_err());
+    /// ```
     pub fn validate(&self) -> Result<()> {
         if let Some(s) = self.centroid_sigma_px {
             if !s.is_finite() || s <= 0.0 || s > 1000.0 {
@@ -325,6 +349,11 @@ pub enum Status {
 impl Status {
     /// Lower-case name: `identified`, `no_match`, `search_limit`, `timeout`, `too_few_stars`,
     /// `invalid_input`, `cancelled`.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::Status::TooFewStars.as_str(), "too_few_stars");
+    /// ```
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Identified => "identified",
@@ -372,6 +401,16 @@ pub struct Identification {
 
 impl Identification {
     /// Whether a verified solution was found.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{Camera, IdentifyConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap());
+    /// let cam = Camera::from_fov(0.2, 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat, &cam).unwrap();
+    /// let id = solver.identify(&[[10.0, 10.0]], None, &cam, &IdentifyConfig::default()).unwrap();
+    /// assert!(!id.is_identified()); // one spot: too few stars
+    /// ```
     pub fn is_identified(&self) -> bool {
         self.status == Status::Identified
     }
@@ -426,6 +465,13 @@ impl Solver {
     ///
     /// # Errors
     /// As [`PairIndex::build`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.pair_index().len() > 0);
+    /// ```
     pub fn new(catalog: Arc<Catalog>, max_angle_rad: f64) -> Result<Self> {
         let t = Instant::now();
         // A deep catalogue: index the brightest stars only (the guide stars); verification
@@ -478,27 +524,65 @@ impl Solver {
     ///
     /// # Errors
     /// As [`PairIndex::build`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cam = starid_core::Camera::from_fov(0.2, 512.0, 512.0).unwrap();
+    /// let solver = starid_core::Solver::for_camera(std::sync::Arc::new(cat), &cam).unwrap();
+    /// assert!(solver.pair_index().max_angle_rad() >= cam.diagonal_fov_rad());
+    /// ```
     pub fn for_camera(catalog: Arc<Catalog>, camera: &Camera) -> Result<Self> {
         Self::new(catalog, camera.diagonal_fov_rad())
     }
 
     /// The catalogue.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert_eq!(solver.catalog().len(), 3000);
+    /// ```
     pub fn catalog(&self) -> &Arc<Catalog> {
         &self.catalog
     }
 
     /// The pair index.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.pair_index().max_angle_rad() >= 0.3);
+    /// ```
     pub fn pair_index(&self) -> &PairIndex {
         &self.pairs
     }
 
     /// The pair index over locally bright stars only, searched first when magnitudes are
     /// given (`None` when those stars are most of the catalogue).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// if let Some(b) = solver.bright_pair_index() {
+    ///     assert!(b.len() < solver.pair_index().len());
+    /// }
+    /// ```
     pub fn bright_pair_index(&self) -> Option<&PairIndex> {
         self.bright_pairs.as_ref()
     }
 
     /// Heap memory of the pair indexes in bytes (the magnitude-split one once built).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.memory_bytes() >= solver.pair_index().memory_bytes());
+    /// ```
     pub fn memory_bytes(&self) -> usize {
         self.pairs.memory_bytes()
             + self
@@ -522,6 +606,13 @@ impl Solver {
 
     /// The pair index split by magnitude bins, for magnitude-gated searches (built on first use,
     /// once, whichever thread asks first).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.mag_pair_index().memory_bytes() > 0); // built on first use
+    /// ```
     pub fn mag_pair_index(&self) -> &MagPairIndex {
         self.mag_pairs
             .get_or_init(|| MagPairIndex::build(&self.pairs, &self.mag32))
@@ -529,7 +620,7 @@ impl Solver {
 
     /// Catalogue stars per steradian in the sparsest field of the sky (cones of half the
     /// index's angle, sampled at 2000 directions): what the search's early stop assumes.
-    pub fn min_density_sr(&self) -> f64 {
+    pub(crate) fn min_density_sr(&self) -> f64 {
         self.min_density_sr
     }
 
@@ -539,6 +630,13 @@ impl Solver {
     }
 
     /// Time it took to build the pair indexes.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.build_time().as_secs_f64() < 60.0);
+    /// ```
     pub fn build_time(&self) -> Duration {
         self.build_time
     }
@@ -556,6 +654,21 @@ impl Solver {
     /// non-finite or duplicate centroids, centroids off the sensor, magnitudes of the wrong
     /// length or non-finite, or an invalid `config`. A frame that cannot be identified is not
     /// an error: see [`Identification::status`].
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    ///
+    /// let frame = simulate(&cat, &cam, &SimConfig { noise_px: 0.2, ..Default::default() }, 3).unwrap();
+    /// let id = solver.identify(&frame.centroids, Some(&frame.magnitudes), &cam, &IdentifyConfig::default()).unwrap();
+    /// assert!(id.is_identified());
+    /// for (got, truth) in id.catalog_index.iter().zip(&frame.catalog_index) {
+    ///     assert!(got.is_none() || got == truth); // never a wrong id
+    /// }
+    /// ```
     pub fn identify(
         &self,
         centroids: &[[f64; 2]],
@@ -876,6 +989,19 @@ impl Solver {
     ///
     /// # Errors
     /// `InvalidInput` when `config` is invalid or the thread pool cannot start.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    ///
+    /// let frames: Vec<_> = (0..4).map(|s| simulate(&cat, &cam, &SimConfig::default(), s).unwrap()).collect();
+    /// let refs: Vec<_> = frames.iter().map(|f| (f.centroids.as_slice(), Some(f.magnitudes.as_slice()))).collect();
+    /// let ids = solver.identify_batch(&refs, &cam, &IdentifyConfig::default(), None).unwrap();
+    /// assert_eq!(ids.len(), 4);
+    /// ```
     pub fn identify_batch(
         &self,
         frames: &[FrameRef<'_>],
@@ -892,6 +1018,21 @@ impl Solver {
     ///
     /// # Errors
     /// As [`Solver::identify_batch`].
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    ///
+    /// use std::sync::atomic::AtomicBool;
+    /// let frames: Vec<_> = (0..4).map(|s| simulate(&cat, &cam, &SimConfig::default(), s).unwrap()).collect();
+    /// let refs: Vec<_> = frames.iter().map(|f| (f.centroids.as_slice(), None)).collect();
+    /// let stop = AtomicBool::new(true); // already cancelled: every frame says so
+    /// let ids = solver.identify_batch_until(&refs, &cam, &IdentifyConfig::default(), None, &stop).unwrap();
+    /// assert!(ids.iter().all(|i| i.status == starid_core::Status::Cancelled));
+    /// ```
     pub fn identify_batch_until(
         &self,
         frames: &[FrameRef<'_>],

@@ -420,7 +420,7 @@ pub(super) fn unambiguous_nearest(
 }
 
 /// `P(X ≥ m)` for `X ~ Binomial(n, p)`, summed in log space.
-pub fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
+pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
     if m == 0 {
         return 1.0;
     }

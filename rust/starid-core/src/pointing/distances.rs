@@ -80,6 +80,18 @@ pub const INCONSISTENT_RMS_PX: f64 = 5.0;
 impl DistanceSolution {
     /// 1σ angular error of the boresight (√ of the trace of its 2×2 block), radians, for
     /// `sigma_px` of noise on each distance; infinite when degenerate.
+    ///
+    /// # Example
+    /// ```
+    /// use nalgebra::Vector3;
+    /// use starid_core::{geometry::attitude_from_radec_roll, pointing::boresight_from_distances};
+    /// let (f, r) = (2000.0, attitude_from_radec_roll(1.0, 0.3, 0.2));
+    /// let offsets = [[200.0, 30.0], [-120.0, 170.0], [-90.0, -210.0]];
+    /// let stars: Vec<_> = offsets.iter().map(|o| r.inverse_transform_vector(&Vector3::new(o[0], o[1], f).normalize())).collect();
+    /// let a: Vec<f64> = offsets.iter().map(|o| f64::hypot(o[0], o[1])).collect();
+    /// let best = &boresight_from_distances(&stars, &a, Some(f)).unwrap()[0];
+    /// assert!(best.boresight_sigma_rad(0.1) < best.boresight_sigma_rad(1.0));
+    /// ```
     pub fn boresight_sigma_rad(&self, sigma_px: f64) -> f64 {
         self.unit_covariance
             .as_ref()
@@ -155,6 +167,19 @@ impl Problem for Distances<'_> {
 /// `InvalidInput` for fewer than three stars, mismatched lengths, non-finite or negative
 /// distances, repeated stars, a focal length that is not positive and finite, or stars more
 /// than 179° apart.
+///
+/// # Example
+/// ```
+/// use nalgebra::Vector3;
+/// use starid_core::{geometry::{angle_between, attitude_from_radec_roll}, pointing::boresight_from_distances};
+/// let (f, r) = (2000.0, attitude_from_radec_roll(1.0, 0.3, 0.2));
+/// let offsets = [[200.0, 30.0], [-120.0, 170.0], [-90.0, -210.0]];
+/// let stars: Vec<_> = offsets.iter().map(|o| r.inverse_transform_vector(&Vector3::new(o[0], o[1], f).normalize())).collect();
+/// let a: Vec<f64> = offsets.iter().map(|o| f64::hypot(o[0], o[1])).collect();
+/// let sols = boresight_from_distances(&stars, &a, Some(f)).unwrap();
+/// let truth = r.inverse_transform_vector(&Vector3::z());
+/// assert!(angle_between(&sols[0].boresight, &truth) < 1e-10 && !sols[0].ambiguous);
+/// ```
 pub fn boresight_from_distances(
     stars: &[Vector3<f64>],
     distances_px: &[f64],
@@ -603,6 +628,14 @@ fn unknown_focal_starts(stars: &[Vector3<f64>], distances_px: &[f64]) -> Vec<Dis
 /// # Errors
 /// `InvalidInput` for non-finite offsets, fewer stars than parameters, or a bad focal length or
 /// noise.
+///
+/// # Example
+/// ```
+/// use starid_core::pointing::predicted_distance_covariance;
+/// let spread = [[230.0, 20.0], [-115.0, 199.0], [-120.0, -195.0]];
+/// let c = predicted_distance_covariance(&spread, 2435.0, 0.1, false).unwrap().unwrap();
+/// assert!(c[(0, 0)] > 0.0 && c[(1, 1)] > 0.0);
+/// ```
 pub fn predicted_distance_covariance(
     offsets_px: &[[f64; 2]],
     focal_px: f64,
@@ -666,6 +699,13 @@ fn boresight_variance(offsets_px: &[[f64; 2]], f: f64, p: usize) -> f64 {
 /// `InvalidInput` for `count < 3`, more stars asked than given, more than 300 stars, non-finite
 /// offsets, or a bad focal length; and when no triple determines the boresight (all collinear
 /// through the principal point).
+///
+/// # Example
+/// ```
+/// let offsets = [[10.0, 5.0], [25.0, -12.0], [-8.0, 20.0], [240.0, 10.0], [-115.0, 205.0], [-125.0, -200.0]];
+/// let (chosen, _sigma) = starid_core::pointing::choose_stars(&offsets, 2435.0, 3, false).unwrap();
+/// assert_eq!(chosen, vec![3, 4, 5]); // the edge stars, spread around the centre
+/// ```
 pub fn choose_stars(
     offsets_px: &[[f64; 2]],
     focal_px: f64,
@@ -748,6 +788,14 @@ pub struct MonteCarlo {
 /// # Errors
 /// As [`predicted_distance_covariance`]; `InvalidInput` when the geometry is degenerate or
 /// `trials` is not in `2..=1_000_000`.
+///
+/// # Example
+/// ```
+/// let spread = [[230.0, 20.0], [-115.0, 199.0], [-120.0, -195.0]];
+/// let mc = starid_core::pointing::monte_carlo_distances(&spread, 2435.0, 0.1, false, 300, 1).unwrap();
+/// let ratio = ((mc.sample[(0, 0)] + mc.sample[(1, 1)]) / (mc.predicted[(0, 0)] + mc.predicted[(1, 1)])).sqrt();
+/// assert!(ratio > 0.8 && ratio < 1.2);
+/// ```
 pub fn monte_carlo_distances(
     offsets_px: &[[f64; 2]],
     focal_px: f64,

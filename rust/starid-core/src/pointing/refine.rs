@@ -82,21 +82,70 @@ impl PointingFit {
     }
 
     /// 1σ angular error of the boresight, radians (√ of var rot_x + var rot_y).
+    ///
+    /// # Example
+    /// ```
+    /// use nalgebra::Vector3;
+    /// use starid_core::{geometry::attitude_from_radec_roll, pointing::{fit_pointing, RefineOptions}, Camera};
+    /// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+    /// let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+    /// let xy: Vec<[f64; 2]> = (0..8).map(|i| [100.0 + 110.0 * i as f64, 900.0 - 95.0 * i as f64 + (i % 3) as f64 * 200.0]).collect();
+    /// let stars: Vec<_> = xy.iter().map(|p| r.inverse_transform_vector(&cam.pixel_to_cam(p[0], p[1], false))).collect();
+    /// let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(2000.0), &RefineOptions { sigma_px: Some(0.1), ..Default::default() }).unwrap();
+    /// assert!(fit.boresight_sigma_rad() > 0.0 && fit.boresight_sigma_rad() < 1e-4);
+    /// ```
     pub fn boresight_sigma_rad(&self) -> f64 {
         (self.var("rot_x") + self.var("rot_y")).sqrt()
     }
 
     /// 1σ error of the roll about the boresight, radians.
+    ///
+    /// # Example
+    /// ```
+    /// use nalgebra::Vector3;
+    /// use starid_core::{geometry::attitude_from_radec_roll, pointing::{fit_pointing, RefineOptions}, Camera};
+    /// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+    /// let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+    /// let xy: Vec<[f64; 2]> = (0..8).map(|i| [100.0 + 110.0 * i as f64, 900.0 - 95.0 * i as f64 + (i % 3) as f64 * 200.0]).collect();
+    /// let stars: Vec<_> = xy.iter().map(|p| r.inverse_transform_vector(&cam.pixel_to_cam(p[0], p[1], false))).collect();
+    /// let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(2000.0), &RefineOptions { sigma_px: Some(0.1), ..Default::default() }).unwrap();
+    /// assert!(fit.roll_sigma_rad() > fit.boresight_sigma_rad() * 0.1);
+    /// ```
     pub fn roll_sigma_rad(&self) -> f64 {
         self.var("rot_z").sqrt()
     }
 
     /// 1σ error of the focal length, pixels (0 when it was not fitted).
+    ///
+    /// # Example
+    /// ```
+    /// use nalgebra::Vector3;
+    /// use starid_core::{geometry::attitude_from_radec_roll, pointing::{fit_pointing, RefineOptions}, Camera};
+    /// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+    /// let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+    /// let xy: Vec<[f64; 2]> = (0..8).map(|i| [100.0 + 110.0 * i as f64, 900.0 - 95.0 * i as f64 + (i % 3) as f64 * 200.0]).collect();
+    /// let stars: Vec<_> = xy.iter().map(|p| r.inverse_transform_vector(&cam.pixel_to_cam(p[0], p[1], false))).collect();
+    /// let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(2000.0), &RefineOptions { sigma_px: Some(0.1), ..Default::default() }).unwrap();
+    /// assert!(fit.focal_sigma_px() > 0.0 && fit.focal_sigma_px() < 1.0);
+    /// ```
     pub fn focal_sigma_px(&self) -> f64 {
         self.var("focal_px").sqrt()
     }
 
     /// 2×2 covariance of the boresight along the camera x and y axes, radians².
+    ///
+    /// # Example
+    /// ```
+    /// use nalgebra::Vector3;
+    /// use starid_core::{geometry::attitude_from_radec_roll, pointing::{fit_pointing, RefineOptions}, Camera};
+    /// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+    /// let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+    /// let xy: Vec<[f64; 2]> = (0..8).map(|i| [100.0 + 110.0 * i as f64, 900.0 - 95.0 * i as f64 + (i % 3) as f64 * 200.0]).collect();
+    /// let stars: Vec<_> = xy.iter().map(|p| r.inverse_transform_vector(&cam.pixel_to_cam(p[0], p[1], false))).collect();
+    /// let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(2000.0), &RefineOptions { sigma_px: Some(0.1), ..Default::default() }).unwrap();
+    /// let c = fit.boresight_covariance().unwrap();
+    /// assert!(c[(0, 0)] > 0.0 && c[(1, 1)] > 0.0);
+    /// ```
     pub fn boresight_covariance(&self) -> Option<Matrix2<f64>> {
         let c = self.covariance.as_ref()?;
         // Rotating by φ moves the boresight by (φy, −φx) in camera x, y.
@@ -244,6 +293,19 @@ fn check_xy(stars: &[Vector3<f64>], xy: &[[f64; 2]]) -> Result<()> {
 /// # Errors
 /// `InvalidInput` for mismatched or non-finite input, a bad starting model, or fewer equations
 /// than unknowns plus one (at least 3 stars).
+///
+/// # Example
+/// ```
+/// use nalgebra::{Rotation3, Vector3};
+/// use starid_core::{geometry::{attitude_from_radec_roll, rotation_angle_between}, pointing::{refine_pointing, RefineOptions}, Camera};
+/// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+/// let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+/// let xy: Vec<[f64; 2]> = (0..8).map(|i| [100.0 + 110.0 * i as f64, 900.0 - 95.0 * i as f64 + (i % 3) as f64 * 200.0]).collect();
+/// let stars: Vec<_> = xy.iter().map(|p| r.inverse_transform_vector(&cam.pixel_to_cam(p[0], p[1], false))).collect();
+/// let start = Camera::from_focal_length(2300.0, 1024.0, 1024.0).unwrap();
+/// let fit = refine_pointing(&stars, &xy, &(r * Rotation3::from_euler_angles(0.002, 0.0, 0.01)), &start, &RefineOptions::default()).unwrap();
+/// assert!((fit.camera.focal_length_px - 2400.0).abs() < 1e-6 && rotation_angle_between(&fit.r_icrs_to_cam, &r) < 1e-9);
+/// ```
 pub fn refine_pointing(
     stars: &[Vector3<f64>],
     xy: &[[f64; 2]],
@@ -317,6 +379,16 @@ pub fn refine_pointing(
 /// for every pair the `f` at which the angle between the two pixel rays equals the catalogue
 /// angle (a quadratic in `f²`), the median over pairs weighted towards wide ones (the widest
 /// 64). `None` when no pair gives one.
+///
+/// # Example
+/// ```
+/// use starid_core::Camera;
+/// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+/// let xy = [[100.0, 120.0], [900.0, 200.0], [500.0, 950.0], [300.0, 600.0]];
+/// let stars: Vec<_> = xy.iter().map(|p| cam.pixel_to_cam(p[0], p[1], false)).collect();
+/// let f = starid_core::pointing::focal_from_pairs(&stars, &xy, [512.0, 512.0]).unwrap();
+/// assert!((f - 2400.0).abs() < 1e-6);
+/// ```
 pub fn focal_from_pairs(
     stars: &[Vector3<f64>],
     xy: &[[f64; 2]],
@@ -349,6 +421,18 @@ pub fn focal_from_pairs(
 }
 
 /// The focal length at which pixel offsets `p`, `q` (from the principal point) subtend `alpha`.
+///
+/// # Example
+/// ```
+/// use nalgebra::Vector2;
+/// let (p, q) = (Vector2::new(100.0, 0.0), Vector2::new(-50.0, 80.0));
+/// let f = 1500.0f64;
+/// let alpha = {
+///     let (a, b) = (nalgebra::Vector3::new(p.x, p.y, f), nalgebra::Vector3::new(q.x, q.y, f));
+///     starid_core::geometry::angle_between(&a, &b)
+/// };
+/// assert!((starid_core::pointing::focal_for_angle(&p, &q, alpha).unwrap() - f).abs() < 1e-6);
+/// ```
 pub fn focal_for_angle(p: &Vector2<f64>, q: &Vector2<f64>, alpha: f64) -> Option<f64> {
     if !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
         return None;
@@ -386,6 +470,18 @@ pub fn focal_for_angle(p: &Vector2<f64>, q: &Vector2<f64>, alpha: f64) -> Option
 /// # Errors
 /// As [`refine_pointing`]; `InvalidInput` when no focal length can be derived or the stars do
 /// not fix an attitude.
+///
+/// # Example
+/// ```
+/// use nalgebra::Vector3;
+/// use starid_core::{geometry::attitude_from_radec_roll, pointing::{fit_pointing, RefineOptions}, Camera};
+/// let cam = Camera::from_focal_length(2400.0, 1024.0, 1024.0).unwrap();
+/// let r = attitude_from_radec_roll(0.3, -0.7, 2.0);
+/// let xy: Vec<[f64; 2]> = (0..8).map(|i| [100.0 + 110.0 * i as f64, 900.0 - 95.0 * i as f64 + (i % 3) as f64 * 200.0]).collect();
+/// let stars: Vec<_> = xy.iter().map(|p| r.inverse_transform_vector(&cam.pixel_to_cam(p[0], p[1], false))).collect();
+/// let fit = fit_pointing(&stars, &xy, 1024.0, 1024.0, Some(2000.0), &RefineOptions { sigma_px: Some(0.1), ..Default::default() }).unwrap();
+/// assert!(fit.converged && (fit.camera.focal_length_px - 2400.0).abs() < 1e-6);
+/// ```
 pub fn fit_pointing(
     stars: &[Vector3<f64>],
     xy: &[[f64; 2]],
