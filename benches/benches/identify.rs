@@ -65,8 +65,20 @@ fn identify(c: &mut Criterion) {
             base.clone(),
             true,
         ),
-        ("12deg_512px_0.2px_order_only", 12.0, 512.0, base.clone(), false),
-        ("12deg_512px_0.2px_shuffled_no_magnitudes", 12.0, 512.0, base, false),
+        (
+            "12deg_512px_0.2px_order_only",
+            12.0,
+            512.0,
+            base.clone(),
+            false,
+        ),
+        (
+            "12deg_512px_0.2px_shuffled_no_magnitudes",
+            12.0,
+            512.0,
+            base,
+            false,
+        ),
     ];
     let shuffled = IdentifyConfig {
         brightness_order: false,
@@ -89,7 +101,11 @@ fn identify(c: &mut Criterion) {
                 f.centroids = idx.iter().map(|&i| f.centroids[i]).collect();
             }
         }
-        let cfg = if name.ends_with("shuffled_no_magnitudes") { &shuffled } else { &cfg };
+        let cfg = if name.ends_with("shuffled_no_magnitudes") {
+            &shuffled
+        } else {
+            &cfg
+        };
         let refs: Vec<_> = fs
             .iter()
             .map(|f| {
@@ -128,7 +144,9 @@ fn identify(c: &mut Criterion) {
     let camera = family.camera();
     let solver = Solver::for_camera(cat.clone(), &camera).unwrap();
     solver.mag_pair_index();
-    let fs: Vec<_> = (0..200).map(|seed| family.simulate(&cat, seed).unwrap()).collect();
+    let fs: Vec<_> = (0..200)
+        .map(|seed| family.simulate(&cat, seed).unwrap())
+        .collect();
     g.throughput(Throughput::Elements(fs.len() as u64));
     g.bench_function("k1_kelvins", |b| {
         b.iter(|| {

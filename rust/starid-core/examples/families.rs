@@ -81,7 +81,9 @@ fn main() {
                 f.catalog_index = idx.iter().map(|&i| f.catalog_index[i]).collect();
                 f.magnitudes = idx.iter().map(|&i| f.magnitudes[i]).collect();
             }
-            let mags = std::env::var("STARID_ORDER_ONLY").is_err().then_some(f.magnitudes.as_slice());
+            let mags = std::env::var("STARID_ORDER_ONLY")
+                .is_err()
+                .then_some(f.magnitudes.as_slice());
             let r = solver
                 .identify(&f.centroids, mags, &camera, &config)
                 .expect("identify");
@@ -112,7 +114,8 @@ fn main() {
                 let full = w == 0 && c == t;
                 if !full && r.is_identified() && std::env::var("STARID_PARTIAL").is_ok() {
                     let rot = r.r_icrs_to_cam.expect("identified");
-                    for (o, (got, want)) in r.catalog_index.iter().zip(&f.catalog_index).enumerate() {
+                    for (o, (got, want)) in r.catalog_index.iter().zip(&f.catalog_index).enumerate()
+                    {
                         if let (None, Some(star)) = (got, want) {
                             let [x, y] = f.centroids[o];
                             let _ = rot;
@@ -156,7 +159,14 @@ fn main() {
         );
         println!(
             "   fully identified by real stars: 3: {}/{}, 4: {}/{}, 5: {}/{}, 6+: {}/{}",
-            by_real[0][1], by_real[0][0], by_real[1][1], by_real[1][0], by_real[2][1], by_real[2][0], by_real[3][1], by_real[3][0]
+            by_real[0][1],
+            by_real[0][0],
+            by_real[1][1],
+            by_real[1][0],
+            by_real[2][1],
+            by_real[2][0],
+            by_real[3][1],
+            by_real[3][0]
         );
     }
 }

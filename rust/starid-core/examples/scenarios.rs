@@ -94,8 +94,14 @@ fn main() {
         let camera =
             Camera::from_fov(sc.fov_deg.to_radians(), sc.size_px, sc.size_px).expect("camera");
         // STARID_FOV_ERR: the solver is told a field of view this fraction off (frames use the true one).
-        let fov_err: f64 = std::env::var("STARID_FOV_ERR").map_or(0.0, |v| v.parse().expect("STARID_FOV_ERR"));
-        let told = Camera::from_fov(sc.fov_deg.to_radians() * (1.0 + fov_err), sc.size_px, sc.size_px).expect("camera");
+        let fov_err: f64 =
+            std::env::var("STARID_FOV_ERR").map_or(0.0, |v| v.parse().expect("STARID_FOV_ERR"));
+        let told = Camera::from_fov(
+            sc.fov_deg.to_radians() * (1.0 + fov_err),
+            sc.size_px,
+            sc.size_px,
+        )
+        .expect("camera");
         let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
         let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
         let sims: Vec<_> = (0..frames)

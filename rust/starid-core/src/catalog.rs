@@ -148,7 +148,10 @@ impl Catalog {
             if !norm.is_finite() || (norm - 1.0).abs() > 1e-9 || !mag[i].is_finite() {
                 return Err(Error::catalog(
                     None,
-                    format!("star {} (row {i}) has a non-unit vector or a non-finite mag", ids[i]),
+                    format!(
+                        "star {} (row {i}) has a non-unit vector or a non-finite mag",
+                        ids[i]
+                    ),
                 ));
             }
             if !seen.insert(ids[i]) {
@@ -319,7 +322,8 @@ impl Catalog {
             if hp > mag_limit {
                 continue;
             }
-            let id = parse_id(f[0]).map_err(|m| Error::catalog(Some(lineno + 1), format!("HIP: {m}")))?;
+            let id = parse_id(f[0])
+                .map_err(|m| Error::catalog(Some(lineno + 1), format!("HIP: {m}")))?;
             let (ra, dec, pm_ra, pm_dec) = (num(4)?, num(5)?, num(7)?, num(8)?);
             let p = radec_to_unit(ra, dec);
             let (east, north) = crate::geometry::east_north(ra, dec);
@@ -486,7 +490,11 @@ impl Catalog {
     /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
     /// `(index, cos_angle)`: through the cube-face grid for small radii, else the zones.
     #[inline]
-    pub(crate) fn nearest_two(&self, center: &Vector3<f64>, radius: Radius) -> (Option<Hit>, Option<Hit>) {
+    pub(crate) fn nearest_two(
+        &self,
+        center: &Vector3<f64>,
+        radius: Radius,
+    ) -> (Option<Hit>, Option<Hit>) {
         self.cells
             .nearest_two_within(center, radius)
             .unwrap_or_else(|| self.zones.nearest_two_within(&self.vectors, center, radius))
@@ -623,18 +631,27 @@ impl TableBuilder {
         if fields.len() < min_fields {
             return Err(Error::catalog(
                 Some(lineno),
-                format!("expected at least {min_fields} fields, found {}", fields.len()),
+                format!(
+                    "expected at least {min_fields} fields, found {}",
+                    fields.len()
+                ),
             ));
         }
         let field = |k: usize| fields[cols[k]].trim().trim_matches('"').trim();
         let num = |k: usize, name: &str| -> Result<f64> {
             let v = field(k).parse::<f64>().map_err(|_| {
-                Error::catalog(Some(lineno), format!("{name} {:?} is not a number", field(k)))
+                Error::catalog(
+                    Some(lineno),
+                    format!("{name} {:?} is not a number", field(k)),
+                )
             })?;
             if v.is_finite() {
                 Ok(v)
             } else {
-                Err(Error::catalog(Some(lineno), format!("{name} must be finite, got {v}")))
+                Err(Error::catalog(
+                    Some(lineno),
+                    format!("{name} must be finite, got {v}"),
+                ))
             }
         };
         let id = parse_id(field(0)).map_err(|m| Error::catalog(Some(lineno), m))?;
@@ -805,7 +822,10 @@ mod tests {
         let c = Catalog::from_table("1,-10,0,1\n2,370,0,1\n3,720,0,1\n".as_bytes()).unwrap();
         let ra: Vec<f64> = c.ra_rad().iter().map(|r| r.to_degrees()).collect();
         let near = |a: f64, b: f64| ((a - b + 180.0).rem_euclid(360.0) - 180.0).abs() < 1e-9;
-        assert!(near(ra[0], 350.0) && near(ra[1], 10.0) && near(ra[2], 0.0), "{ra:?}");
+        assert!(
+            near(ra[0], 350.0) && near(ra[1], 10.0) && near(ra[2], 0.0),
+            "{ra:?}"
+        );
         assert!(ra.iter().all(|r| (0.0..360.0).contains(r)));
     }
 

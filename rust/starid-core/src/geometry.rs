@@ -215,8 +215,7 @@ impl Camera {
     /// assert!(cam.is_ideal() && !cam.with_k1(0.01).unwrap().is_ideal());
     /// ```
     pub fn is_ideal(&self) -> bool {
-        self.k1 == 0.0
-            && self.principal_point_px == [0.5 * self.width_px, 0.5 * self.height_px]
+        self.k1 == 0.0 && self.principal_point_px == [0.5 * self.width_px, 0.5 * self.height_px]
     }
 
     /// Full field of view across the width, radians (of the pinhole, ignoring distortion).
@@ -247,8 +246,8 @@ impl Camera {
         }
         // Widest angle between two corners' rays.
         let (w, h) = (self.width_px, self.height_px);
-        let corners = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
-            .map(|(x, y)| self.pixel_to_cam(x, y, false));
+        let corners =
+            [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)].map(|(x, y)| self.pixel_to_cam(x, y, false));
         let mut widest = pinhole;
         for a in 0..4 {
             for b in a + 1..4 {

@@ -646,7 +646,9 @@ pub fn fov_for_coverage(
     tol_rad: f64,
 ) -> Result<f64> {
     if !(p > 0.0 && p <= 1.0) {
-        return Err(Error::invalid_input(format!("p must be in (0, 1], got {p}")));
+        return Err(Error::invalid_input(format!(
+            "p must be in (0, 1], got {p}"
+        )));
     }
     if k == 0 {
         return Err(Error::invalid_input("k must be >= 1"));

@@ -72,5 +72,5 @@ pub use error::{Error, ErrorKind, Result};
 pub use geometry::Camera;
 pub use identify::{FrameRef, Identification, IdentifyConfig, Method, Solver, Status};
 pub use kvector::PairIndex;
-pub use simulate::{simulate, Family, FalseStarMags, SimConfig, SimFrame};
+pub use simulate::{simulate, FalseStarMags, Family, SimConfig, SimFrame};
 pub use unknown_focal::FocalIdentification;

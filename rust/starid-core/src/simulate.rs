@@ -10,7 +10,6 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal, StandardNormal};
 
-
 use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
@@ -341,7 +340,10 @@ pub fn simulate(
     if config.mag_limit.is_some_and(f64::is_nan) {
         return Err(Error::invalid_input("mag_limit is NaN"));
     }
-    if config.false_stars_max.is_some_and(|m| m < config.false_stars || m > 100_000) {
+    if config
+        .false_stars_max
+        .is_some_and(|m| m < config.false_stars || m > 100_000)
+    {
         return Err(Error::invalid_input(format!(
             "false_stars_max must be within [false_stars, 100000], got {:?}",
             config.false_stars_max
@@ -385,7 +387,11 @@ pub fn simulate(
     for star in stars {
         let m = catalog.mag()[star as usize];
         // With photon noise the detector decides on the noisy magnitude: allow 5σ past the limit.
-        let slack = if photon { 5.0 * mag_sigma(m).min(1.0) } else { 0.0 };
+        let slack = if photon {
+            5.0 * mag_sigma(m).min(1.0)
+        } else {
+            0.0
+        };
         if config.mag_limit.is_some_and(|lim| m > lim + slack) {
             continue;
         }
@@ -418,7 +424,12 @@ pub fn simulate(
     // Catalogue magnitudes within the limit, for false stars that look like stars.
     let pool: Vec<f64> = if config.false_star_mags == FalseStarMags::FromCatalog {
         let lim = config.mag_limit.unwrap_or(f64::INFINITY);
-        catalog.mag().iter().copied().filter(|&m| m <= lim).collect()
+        catalog
+            .mag()
+            .iter()
+            .copied()
+            .filter(|&m| m <= lim)
+            .collect()
     } else {
         Vec::new()
     };
@@ -443,11 +454,17 @@ pub fn simulate(
         } else {
             0
         };
-        let hi = config.mag_limit.unwrap_or(config.uncatalogued_mag_min + 1.0);
+        let hi = config
+            .mag_limit
+            .unwrap_or(config.uncatalogued_mag_min + 1.0);
         let lo = config.uncatalogued_mag_min.min(hi);
         for _ in 0..count {
             centroids.push([rng.random_range(0.0..w), rng.random_range(0.0..h)]);
-            magnitudes.push(if lo < hi { rng.random_range(lo..hi) } else { lo });
+            magnitudes.push(if lo < hi {
+                rng.random_range(lo..hi)
+            } else {
+                lo
+            });
             catalog_index.push(None);
         }
     }

@@ -29,7 +29,6 @@ impl Radius {
         let (sin, cos) = rad.sin_cos();
         Self { rad, cos, sin }
     }
-
 }
 
 /// Zone index over a set of unit vectors.

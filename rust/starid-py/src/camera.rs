@@ -75,7 +75,10 @@ impl PyCamera {
     /// Principal point ``(cx, cy)``, pixels.
     #[getter]
     fn principal_point(&self) -> (f64, f64) {
-        (self.inner.principal_point_px[0], self.inner.principal_point_px[1])
+        (
+            self.inner.principal_point_px[0],
+            self.inner.principal_point_px[1],
+        )
     }
     /// Radial distortion on normalised coordinates (negative: barrel).
     #[getter]
@@ -135,10 +138,7 @@ impl PyCamera {
     }
 
     /// Pickling and copying: ``Camera(image_size, focal_length_px=..., principal_point=..., k1=...)``.
-    fn __getnewargs_ex__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<NewArgs<'py>> {
+    fn __getnewargs_ex__<'py>(&self, py: Python<'py>) -> PyResult<NewArgs<'py>> {
         let d = pyo3::types::PyDict::new(py);
         d.set_item("focal_length_px", self.inner.focal_length_px)?;
         d.set_item("principal_point", self.principal_point())?;

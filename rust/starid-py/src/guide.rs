@@ -13,7 +13,9 @@ use crate::run_core;
 fn positive_deg(name: &str, value: Option<f64>) -> PyResult<f64> {
     match value {
         Some(v) => Ok(v.to_radians()),
-        None => Err(InvalidInputError::new_err(format!("this method needs {name}"))),
+        None => Err(InvalidInputError::new_err(format!(
+            "this method needs {name}"
+        ))),
     }
 }
 
@@ -53,8 +55,9 @@ pub fn guide_select(
             run_core(py, move || guide::select_rectangle(&cat, cell))?
         }
         "qtm" | "qtm-weighted" => {
-            let level = level
-                .ok_or_else(|| InvalidInputError::new_err(format!("method '{method}' needs level")))?;
+            let level = level.ok_or_else(|| {
+                InvalidInputError::new_err(format!("method '{method}' needs level"))
+            })?;
             let rule = if method == "qtm" {
                 QtmRule::Brightest
             } else {

@@ -229,7 +229,12 @@ impl PyIdentifyConfig {
         let d = self.to_dict(py)?;
         let parts: PyResult<Vec<String>> = SETTINGS
             .iter()
-            .map(|k| Ok(format!("{k}={}", d.get_item(k)?.expect("every setting").repr()?)))
+            .map(|k| {
+                Ok(format!(
+                    "{k}={}",
+                    d.get_item(k)?.expect("every setting").repr()?
+                ))
+            })
             .collect();
         Ok(format!("IdentifyConfig({})", parts?.join(", ")))
     }
@@ -329,7 +334,8 @@ fn identify_many<'py>(
     // signals: Ctrl-C cancels the frames not yet begun and raises KeyboardInterrupt at once.
     let cancel = AtomicBool::new(false);
     let results = std::thread::scope(|scope| -> PyResult<Vec<starid_core::Identification>> {
-        let batch = scope.spawn(|| solver.identify_batch_until(&refs, &cam, &cfg, threads, &cancel));
+        let batch =
+            scope.spawn(|| solver.identify_batch_until(&refs, &cam, &cfg, threads, &cancel));
         while !batch.is_finished() {
             if let Err(interrupt) = py.check_signals() {
                 cancel.store(true, Ordering::Relaxed);

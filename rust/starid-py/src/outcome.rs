@@ -326,8 +326,19 @@ impl PyIdentification {
 
     #[staticmethod]
     fn _from_state(state: State) -> PyResult<Self> {
-        let (status, ids, residuals_arcsec, rotation, mirrored, fmp, n_matched, floats, hypotheses, method, message) =
-            state;
+        let (
+            status,
+            ids,
+            residuals_arcsec,
+            rotation,
+            mirrored,
+            fmp,
+            n_matched,
+            floats,
+            hypotheses,
+            method,
+            message,
+        ) = state;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
             .name();

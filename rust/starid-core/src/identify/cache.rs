@@ -91,7 +91,9 @@ impl SolverCache {
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Arc<Solver>>> {
         // A panic while holding the lock leaves the vector intact: keep using it.
-        self.solvers.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+        self.solvers
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     fn cached(&self, max_angle_rad: f64) -> Option<Arc<Solver>> {

@@ -39,11 +39,14 @@ impl MagPairIndex {
         let mut sorted = mags.to_vec();
         sorted.sort_unstable_by(f32::total_cmp);
         let n = sorted.len().max(1);
-        let mut edges: Vec<f32> = (1..MAG_BINS).map(|k| sorted[(k * n / MAG_BINS).min(n - 1)]).collect();
+        let mut edges: Vec<f32> = (1..MAG_BINS)
+            .map(|k| sorted[(k * n / MAG_BINS).min(n - 1)])
+            .collect();
         edges.dedup();
         let bins = edges.len() + 1;
         let bin = |m: f32| edges.partition_point(|&e| e <= m);
-        let mut parts: Vec<(Vec<f32>, Vec<[u32; 2]>)> = vec![(Vec::new(), Vec::new()); MAG_BINS * MAG_BINS];
+        let mut parts: Vec<(Vec<f32>, Vec<[u32; 2]>)> =
+            vec![(Vec::new(), Vec::new()); MAG_BINS * MAG_BINS];
         let all = 0..pairs.len();
         for (angle, [p, q]) in pairs.angles(all.clone()).iter().zip(pairs.pairs(all)) {
             let (bp, bq) = (bin(mags[p as usize]), bin(mags[q as usize]));
@@ -55,7 +58,9 @@ impl MagPairIndex {
         let _ = bins;
         let subs = parts
             .into_iter()
-            .map(|(angles, ps)| PairIndex::from_sorted_pairs(angles, &ps, mags.len(), pairs.max_angle_rad()))
+            .map(|(angles, ps)| {
+                PairIndex::from_sorted_pairs(angles, &ps, mags.len(), pairs.max_angle_rad())
+            })
             .collect();
         Self { edges, subs }
     }
@@ -68,7 +73,12 @@ impl MagPairIndex {
     }
 
     /// The ids of the sub-indexes to read for two centroids with bin runs `a` and `b`, each once.
-    pub(crate) fn for_each_sub(&self, a: Range<usize>, b: Range<usize>, mut f: impl FnMut(usize, &PairIndex)) {
+    pub(crate) fn for_each_sub(
+        &self,
+        a: Range<usize>,
+        b: Range<usize>,
+        mut f: impl FnMut(usize, &PairIndex),
+    ) {
         for x in a.clone() {
             for y in b.clone() {
                 let (lo, hi) = (x.min(y), x.max(y));

@@ -54,10 +54,9 @@ mod pyramid;
 mod verify;
 mod voting;
 
-pub(crate) use verify::binomial_tail;
 pub use cache::SolverCache;
 pub use magbins::MagPairIndex;
-
+pub(crate) use verify::binomial_tail;
 
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
@@ -303,13 +302,19 @@ impl IdentifyConfig {
                 self.min_matches
             )));
         }
-        if self.mag_offset.is_some_and(|o| !o.is_finite() || o.abs() > 100.0) {
+        if self
+            .mag_offset
+            .is_some_and(|o| !o.is_finite() || o.abs() > 100.0)
+        {
             return Err(Error::invalid_input(format!(
                 "mag_offset must be finite and within [-100, 100], got {:?}",
                 self.mag_offset
             )));
         }
-        if !(self.mag_tolerance.is_finite() && self.mag_tolerance > 0.0 && self.mag_tolerance <= 100.0) {
+        if !(self.mag_tolerance.is_finite()
+            && self.mag_tolerance > 0.0
+            && self.mag_tolerance <= 100.0)
+        {
             return Err(Error::invalid_input(format!(
                 "mag_tolerance must be in (0, 100] magnitudes, got {}",
                 self.mag_tolerance
@@ -479,7 +484,8 @@ impl Solver {
         let n_cat = catalog.len() as f64;
         let expected = 0.25 * n_cat * n_cat * (1.0 - max_angle_rad.cos());
         let guide: Option<Vec<bool>> = (expected > MAX_INDEX_PAIRS as f64).then(|| {
-            let keep = (MAX_INDEX_PAIRS as f64 / (0.25 * (1.0 - max_angle_rad.cos()))).sqrt() as usize;
+            let keep =
+                (MAX_INDEX_PAIRS as f64 / (0.25 * (1.0 - max_angle_rad.cos()))).sqrt() as usize;
             let mut mags: Vec<f64> = catalog.mag().to_vec();
             mags.sort_unstable_by(f64::total_cmp);
             let limit = mags[keep.clamp(1, mags.len()) - 1];
@@ -733,7 +739,8 @@ impl Solver {
         };
         let gate = windows(config.mag_tolerance);
         let gate_tight = windows(TIGHT_MAG_FRACTION * config.mag_tolerance);
-        let fraction = |g: &Option<Vec<[f32; 2]>>| g.as_deref().map_or(1.0, |g| self.window_fraction(g));
+        let fraction =
+            |g: &Option<Vec<[f32; 2]>>| g.as_deref().map_or(1.0, |g| self.window_fraction(g));
         let mut gated_ran = false;
         let mut fraction_normal = None;
         let stride = passes
@@ -785,7 +792,11 @@ impl Solver {
                 }
             }
             search.gate = if pass.gated { gate.as_deref() } else { None };
-            search.gen_gate = if pass.gated && pass.tight { gate_tight.as_deref() } else { None };
+            search.gen_gate = if pass.gated && pass.tight {
+                gate_tight.as_deref()
+            } else {
+                None
+            };
             if pass.gated {
                 let stride = search.stride;
                 search.scratch.side_cache.reset(stride);
@@ -884,9 +895,14 @@ impl Solver {
         // Crowded frames need more triangles before an all-real one comes up: the tighter steps
         // try a fixed share of the search stars' triangles there.
         let s = n.min(config.max_search_stars);
-        let triangles_per_step = TRIANGLES_PER_STEP.max(s * (s - 1) * (s - 2) / 6 / CROWDED_TRIANGLE_SHARE);
+        let triangles_per_step =
+            TRIANGLES_PER_STEP.max(s * (s - 1) * (s - 2) / 6 / CROWDED_TRIANGLE_SHARE);
         if bright {
-            passes.extend(early.iter().map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)));
+            passes.extend(
+                early
+                    .iter()
+                    .map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)),
+            );
         }
         if gated && config.method == Method::Auto && n > BRIGHT_SEARCH_STARS {
             // The tightest step over every spot; looser ones over the brightest
@@ -899,15 +915,28 @@ impl Solver {
                 tight: true,
                 pairs_budget: HOSTILE_PAIRS_PER_STEP / 2,
                 method: Method::Auto,
-                ..pass(false, n.min(HOSTILE_SEARCH_STARS), gated_steps[0], HOSTILE_TRIANGLES)
+                ..pass(
+                    false,
+                    n.min(HOSTILE_SEARCH_STARS),
+                    gated_steps[0],
+                    HOSTILE_TRIANGLES,
+                )
             });
             passes.extend(gated_steps.iter().enumerate().map(|(k, &s)| Pass {
                 gated: true,
-                pairs_budget: if k == 0 { HOSTILE_PAIRS_PER_STEP / 2 } else { HOSTILE_PAIRS_PER_STEP / 8 },
+                pairs_budget: if k == 0 {
+                    HOSTILE_PAIRS_PER_STEP / 2
+                } else {
+                    HOSTILE_PAIRS_PER_STEP / 8
+                },
                 method: Method::Auto,
                 ..pass(
                     false,
-                    n.min(if k == 0 { HOSTILE_SEARCH_STARS } else { HOSTILE_LOOSE_STARS }),
+                    n.min(if k == 0 {
+                        HOSTILE_SEARCH_STARS
+                    } else {
+                        HOSTILE_LOOSE_STARS
+                    }),
                     s,
                     HOSTILE_TRIANGLES,
                 )
@@ -1044,10 +1073,20 @@ impl Solver {
         config.validate()?;
         let one = |f: &FrameRef<'_>| -> Identification {
             if cancel.load(Ordering::Relaxed) {
-                return Identification::unidentified(Status::Cancelled, f.0.len(), 0, Duration::ZERO);
+                return Identification::unidentified(
+                    Status::Cancelled,
+                    f.0.len(),
+                    0,
+                    Duration::ZERO,
+                );
             }
             self.identify(f.0, f.1, camera, config).unwrap_or_else(|e| {
-                let mut id = Identification::unidentified(Status::InvalidInput, f.0.len(), 0, Duration::ZERO);
+                let mut id = Identification::unidentified(
+                    Status::InvalidInput,
+                    f.0.len(),
+                    0,
+                    Duration::ZERO,
+                );
                 id.message = Some(e.to_string());
                 id
             })

@@ -4,12 +4,12 @@
 use std::f64::consts::{PI, SQRT_2};
 use std::time::Instant;
 
+use super::magbins::MagPairIndex;
 use super::verify::binomial_tail;
 use super::{
     Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, CONFIRM_POOL, MATCH_RADIUS_SIGMAS,
     STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
 };
-use super::magbins::MagPairIndex;
 use crate::attitude::{triad, wahba_from};
 
 impl Search<'_> {
@@ -51,7 +51,11 @@ impl Search<'_> {
         // at this step, with the sparsest field's density and the smallest match radius, must
         // stay under the limit; past this many hypotheses it cannot, and the pass ends.
         let n = self.order.len();
-        let frac = if self.gate.is_some() { self.gate_fraction } else { 1.0 };
+        let frac = if self.gate.is_some() {
+            self.gate_fraction
+        } else {
+            1.0
+        };
         let r_min = MATCH_RADIUS_SIGMAS * sigma_rad;
         let p_min = (self.solver.min_density_sr() * PI * r_min * r_min * frac).min(1.0);
         let best_tail = binomial_tail(n - 3, n - 3, p_min);
@@ -103,13 +107,14 @@ impl Search<'_> {
                         // This pass's own budget is spent; the search goes on with the next.
                         return Ok(self.accept(best));
                     }
-                    let why = if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
-                        Some(Status::SearchLimit)
-                    } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
-                        Some(Status::Timeout)
-                    } else {
-                        None
-                    };
+                    let why =
+                        if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
+                            Some(Status::SearchLimit)
+                        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+                            Some(Status::Timeout)
+                        } else {
+                            None
+                        };
                     if let Some(why) = why {
                         return self
                             .accept(best)
@@ -164,7 +169,13 @@ impl Search<'_> {
         match self.gen_gate.or(self.gate).map(|g| [g[i], g[j], g[k]]) {
             Some(windows) => {
                 let mag_index = self.solver.mag_pair_index();
-                self.catalogue_triangles_gated(mag_index, [t_ij, t_ik, t_jk], eps, windows, &mut triangles);
+                self.catalogue_triangles_gated(
+                    mag_index,
+                    [t_ij, t_ik, t_jk],
+                    eps,
+                    windows,
+                    &mut triangles,
+                );
             }
             None => self.catalogue_triangles(t_ij, t_ik, t_jk, eps, &mut triangles),
         }
@@ -280,7 +291,6 @@ impl Search<'_> {
             }
         }
     }
-
 }
 
 impl Search<'_> {
@@ -347,7 +357,13 @@ impl Search<'_> {
             let (a, b) = verts[e];
             let (lo, hi) = if pos[a] < pos[b] { (a, b) } else { (b, a) };
             flipped[e] = lo != a;
-            ranges[e] = self.side_candidates(mag_index, (pos[lo], pos[hi]), (windows[lo], windows[hi]), t[e], eps);
+            ranges[e] = self.side_candidates(
+                mag_index,
+                (pos[lo], pos[hi]),
+                (windows[lo], windows[hi]),
+                t[e],
+                eps,
+            );
             if ranges[e].is_empty() {
                 return;
             }
@@ -374,7 +390,13 @@ impl Search<'_> {
         let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
         let entries = &self.scratch.side_cache.entries;
         // Entry of a side as (star of its first vertex, star of its second vertex).
-        let oriented = |e: usize, p: [u32; 2]| if flipped[e] { (p[1], p[0]) } else { (p[0], p[1]) };
+        let oriented = |e: usize, p: [u32; 2]| {
+            if flipped[e] {
+                (p[1], p[0])
+            } else {
+                (p[0], p[1])
+            }
+        };
         let adj = &mut self.scratch.adj_ik;
         adj.reset(n_cat);
         for &p in &entries[ranges[look].clone()] {
@@ -458,4 +480,3 @@ impl Adjacency {
         })
     }
 }
-

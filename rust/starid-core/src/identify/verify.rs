@@ -5,7 +5,10 @@ use std::f64::consts::PI;
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::{Search, Verified, CONFIRM_POOL, MAG_BRIGHTER_LIMIT, MAG_CHECK_MIN_MATCHES, MAG_OUTLIER_SIGMAS, MATCH_RADIUS_SIGMAS};
+use super::{
+    Search, Verified, CONFIRM_POOL, MAG_BRIGHTER_LIMIT, MAG_CHECK_MIN_MATCHES, MAG_OUTLIER_SIGMAS,
+    MATCH_RADIUS_SIGMAS,
+};
 use crate::attitude::wahba_from;
 use crate::catalog::Catalog;
 use crate::sky::Radius;
@@ -204,7 +207,9 @@ impl Search<'_> {
         };
         let tol = self.config.mag_tolerance;
         if let (Some(off), Some(m)) = (offset, self.magnitudes) {
-            let fits = |o: u32, star: u32| (m[o as usize] - off - f64::from(mags[star as usize])).abs() <= tol;
+            let fits = |o: u32, star: u32| {
+                (m[o as usize] - off - f64::from(mags[star as usize])).abs() <= tol
+            };
             let cat = catalog.vectors();
             let decisive = 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad;
             s.claim.sort_unstable_by_key(|c| c.0);
@@ -218,18 +223,19 @@ impl Search<'_> {
                         .map(|i| s.claim[i].1)
                 };
                 let pair = (s1.min(s2), s1.max(s2));
-                let oa = match (owner(s1), owner(s2)) {
-                    (Some(a), None) | (None, Some(a)) => a,
-                    // Both torn between the same two stars: the other one's index is larger,
-                    // so the pair is settled once.
-                    (None, None) => match s.ambiguous.iter().find(|(o, c)| {
-                        *o > ob && (c[0].0.min(c[1].0), c[0].0.max(c[1].0)) == pair
-                    }) {
-                        Some(&(o, _)) => o,
-                        None => continue,
-                    },
-                    _ => continue,
-                };
+                let oa =
+                    match (owner(s1), owner(s2)) {
+                        (Some(a), None) | (None, Some(a)) => a,
+                        // Both torn between the same two stars: the other one's index is larger,
+                        // so the pair is settled once.
+                        (None, None) => match s.ambiguous.iter().find(|(o, c)| {
+                            *o > ob && (c[0].0.min(c[1].0), c[0].0.max(c[1].0)) == pair
+                        }) {
+                            Some(&(o, _)) => o,
+                            None => continue,
+                        },
+                        _ => continue,
+                    };
                 let wa = r.inverse_transform_vector(&obs[oa as usize]);
                 let wb = r.inverse_transform_vector(&obs[ob as usize]);
                 let d = |w: &Vector3<f64>, star: u32| w.cross(&cat[star as usize]).norm();
@@ -238,7 +244,11 @@ impl Search<'_> {
                 if (straight - crossed).abs() < decisive {
                     continue;
                 }
-                let (for_a, for_b) = if straight < crossed { (s1, s2) } else { (s2, s1) };
+                let (for_a, for_b) = if straight < crossed {
+                    (s1, s2)
+                } else {
+                    (s2, s1)
+                };
                 if !(fits(oa, for_a) && fits(ob, for_b)) {
                     continue;
                 }
@@ -336,7 +346,13 @@ impl Search<'_> {
     }
 
     /// `P(Bin(n − 3, p) ≥ m − 3)` with `p` from the local catalogue density.
-    pub(super) fn match_tail(&self, r: &Rotation3<f64>, n: usize, matched: usize, radius: f64) -> f64 {
+    pub(super) fn match_tail(
+        &self,
+        r: &Rotation3<f64>,
+        n: usize,
+        matched: usize,
+        radius: f64,
+    ) -> f64 {
         let half_diag = 0.5 * self.camera.diagonal_fov_rad();
         let boresight = r.inverse_transform_vector(&Vector3::z());
         let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
@@ -344,7 +360,11 @@ impl Search<'_> {
         let density = in_field.max(1) as f64 / cone_sr;
         // In a gated pass a chance match must also fall in the centroid's magnitude window: the
         // mean chance over the centroids bounds the tail (Hoeffding 1956, for counts above the mean).
-        let frac = if self.gate.is_some() { self.gate_fraction } else { 1.0 };
+        let frac = if self.gate.is_some() {
+            self.gate_fraction
+        } else {
+            1.0
+        };
         let p = (density * PI * radius * radius * frac).min(1.0);
         binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p)
     }
@@ -453,4 +473,3 @@ pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
     }
     sum.min(1.0)
 }
-

@@ -33,7 +33,9 @@ impl Search<'_> {
         let r_confirm = 8.0 * sigma_rad + 2e-7;
         let n_cat = self.solver.catalog.len();
         // Dense counters, one row per voting centroid; rows shrink for very large catalogues.
-        let s = stars.min(self.order.len()).min((16_000_000 / n_cat.max(1)).max(3));
+        let s = stars
+            .min(self.order.len())
+            .min((16_000_000 / n_cat.max(1)).max(3));
         let search: Vec<usize> = self.order[..s].to_vec();
         let obs = self.obs[0];
         let idx = self.pairs;

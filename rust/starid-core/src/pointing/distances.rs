@@ -99,7 +99,6 @@ impl DistanceSolution {
     }
 }
 
-
 struct Distances<'a> {
     stars: &'a [Vector3<f64>],
     distances_px: &'a [f64],
@@ -156,8 +155,6 @@ impl Problem for Distances<'_> {
         }
     }
 }
-
-
 
 /// Boresight (and, when `focal_px` is `None`, focal length) from catalogue directions `stars`
 /// and the distances of their images from the principal point, pixels. Returns every distinct
@@ -867,7 +864,6 @@ pub fn monte_carlo_distances(
         trials,
     })
 }
-
 
 #[cfg(test)]
 mod tests {

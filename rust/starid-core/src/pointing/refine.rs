@@ -13,7 +13,6 @@ use crate::error::{Error, Result};
 use crate::geometry::{angle_between, Camera};
 use crate::lsq::{self, Problem};
 
-
 /// What [`refine_pointing`] fits besides the attitude.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineOptions {
@@ -515,7 +514,6 @@ pub fn fit_pointing(
         .ok_or_else(|| Error::invalid_input("these stars do not fix an attitude"))?;
     refine_pointing(stars, xy, &r0, &start, options)
 }
-
 
 #[cfg(test)]
 mod tests {

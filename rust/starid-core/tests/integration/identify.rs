@@ -240,7 +240,12 @@ fn a_false_star_far_brighter_than_the_faint_star_it_covers_is_not_that_star() {
             "a faint-looking star keeps its id"
         );
         // Only the false star is lost; magnitudes may also settle a double geometry left open.
-        assert!(told.matched + 1 >= blind.matched, "{} vs {}", told.matched, blind.matched);
+        assert!(
+            told.matched + 1 >= blind.matched,
+            "{} vs {}",
+            told.matched,
+            blind.matched
+        );
         checked += 1;
     }
     assert!(checked >= 10, "{checked}");
@@ -394,7 +399,12 @@ fn kelvins_scenes_are_identified_through_many_false_spots() {
         }
         tried += 1;
         let r = solver_k1()
-            .identify(&f.centroids, Some(&f.magnitudes), &camera, &IdentifyConfig::default())
+            .identify(
+                &f.centroids,
+                Some(&f.magnitudes),
+                &camera,
+                &IdentifyConfig::default(),
+            )
             .unwrap();
         // Never a wrong id, whatever the method found.
         for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
@@ -413,13 +423,30 @@ fn kelvins_scenes_are_identified_through_many_false_spots() {
 fn every_method_identifies_clean_frames() {
     let camera = camera_12();
     for method in [Method::Pyramid, Method::Voting, Method::Auto] {
-        let cfg = IdentifyConfig { method, ..Default::default() };
+        let cfg = IdentifyConfig {
+            method,
+            ..Default::default()
+        };
         for seed in 0..5u64 {
-            let sim = SimConfig { noise_px: 0.2, mag_noise: 0.05, mag_limit: Some(6.0), ..Default::default() };
+            let sim = SimConfig {
+                noise_px: 0.2,
+                mag_noise: 0.05,
+                mag_limit: Some(6.0),
+                ..Default::default()
+            };
             let f = simulate(&bundled(), &camera, &sim, seed).unwrap();
-            let r = solver_12().identify(&f.centroids, Some(&f.magnitudes), &camera, &cfg).unwrap();
+            let r = solver_12()
+                .identify(&f.centroids, Some(&f.magnitudes), &camera, &cfg)
+                .unwrap();
             assert!(r.is_identified(), "{} seed {seed}", method.name());
-            assert_eq!(r.method, if method == Method::Auto { r.method } else { method });
+            assert_eq!(
+                r.method,
+                if method == Method::Auto {
+                    r.method
+                } else {
+                    method
+                }
+            );
             for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
                 assert!(got.is_none() || got == want);
             }
@@ -432,11 +459,22 @@ fn every_method_identifies_clean_frames() {
 #[test]
 fn spots_cut_by_the_edge_are_used() {
     let camera = camera_12();
-    let f = simulate(&bundled(), &camera, &SimConfig { mag_limit: Some(6.0), ..Default::default() }, 3).unwrap();
+    let f = simulate(
+        &bundled(),
+        &camera,
+        &SimConfig {
+            mag_limit: Some(6.0),
+            ..Default::default()
+        },
+        3,
+    )
+    .unwrap();
     let mut xy = f.centroids.clone();
     xy.push([200.0, 513.7]);
     xy.push([-0.5, 100.0]);
-    let r = solver_12().identify(&xy, None, &camera, &IdentifyConfig::default()).unwrap();
+    let r = solver_12()
+        .identify(&xy, None, &camera, &IdentifyConfig::default())
+        .unwrap();
     assert!(r.is_identified());
 }
 
