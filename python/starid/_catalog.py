@@ -258,17 +258,23 @@ class Catalog:
         """The stars with ``mag <= mag_limit`` as a new catalogue."""
         return Catalog._wrap(self._native.filter_mag(float(mag_limit)), self.name)
 
-    def index_info(self, fov_deg: float, image_size: tuple[float, float]) -> dict[str, float]:
+    def index_info(
+        self, fov_deg: float, image_size: tuple[float, float], *, magnitude_index: bool = False
+    ) -> dict[str, float]:
         """Build (or fetch) the pair indexes used for frames of this geometry; report their size.
 
         Returns a dict with ``pairs`` (all pairs closer than the indexed angle), ``bright_pairs``
-        (pairs among locally bright stars, searched first when magnitudes are given; 0 when
-        there is no such index), ``max_angle_deg``, ``memory_bytes`` (both indexes) and
-        ``build_time_s`` (both indexes).
+        (pairs among locally bright stars, searched first; 0 when there is no such index),
+        ``max_angle_deg``, ``build_time_s`` (both pair indexes), and the memory of every index
+        the solver keeps: ``pair_index_bytes``, ``bright_index_bytes``,
+        ``magnitude_index_bytes`` (the magnitude-split index a gated search builds on first
+        use; 0 until then, or built now with ``magnitude_index=True``, taking
+        ``magnitude_index_build_time_s``) and their sum ``memory_bytes``.
         """
         from ._identify import _camera
 
-        return dict(self._native.index_info(_camera(None, fov_deg, image_size).diagonal_fov_deg))
+        diag = _camera(None, fov_deg, image_size).diagonal_fov_deg
+        return dict(self._native.index_info(diag, bool(magnitude_index)))
 
     def to_csv(self, path: PathLike) -> None:
         """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag``."""

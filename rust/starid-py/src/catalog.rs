@@ -152,8 +152,24 @@ impl PyCatalog {
 
     /// Build (or fetch from the cache) the pair index for frames whose stars are at most
     /// `max_angle_deg` apart; returns its size and build time.
-    fn index_info<'py>(&self, py: Python<'py>, max_angle_deg: f64) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (max_angle_deg, magnitude_index=false))]
+    fn index_info<'py>(
+        &self,
+        py: Python<'py>,
+        max_angle_deg: f64,
+        magnitude_index: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
         let s = self.solver(py, max_angle_deg.to_radians())?;
+        let mag_build_s = if magnitude_index {
+            let solver = s.clone();
+            py.detach(move || {
+                let t = std::time::Instant::now();
+                solver.mag_pair_index();
+                t.elapsed().as_secs_f64()
+            })
+        } else {
+            f64::NAN
+        };
         let d = PyDict::new(py);
         d.set_item("pairs", s.pair_index().len())?;
         d.set_item("max_angle_deg", s.pair_index().max_angle_rad().to_degrees())?;
@@ -162,6 +178,14 @@ impl PyCatalog {
             s.bright_pair_index().map_or(0, starid_core::PairIndex::len),
         )?;
         d.set_item("memory_bytes", s.memory_bytes())?;
+        d.set_item("pair_index_bytes", s.pair_index().memory_bytes())?;
+        d.set_item(
+            "bright_index_bytes",
+            s.bright_pair_index()
+                .map_or(0, starid_core::PairIndex::memory_bytes),
+        )?;
+        d.set_item("magnitude_index_bytes", s.magnitude_index_bytes())?;
+        d.set_item("magnitude_index_build_time_s", mag_build_s)?;
         d.set_item("build_time_s", s.build_time().as_secs_f64())?;
         Ok(d)
     }

@@ -598,6 +598,21 @@ impl Solver {
             + self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
     }
 
+    /// Memory of the magnitude-split index, bytes; 0 until a gated search (or
+    /// [`Solver::mag_pair_index`]) builds it.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert_eq!(solver.magnitude_index_bytes(), 0);
+    /// solver.mag_pair_index();
+    /// assert!(solver.magnitude_index_bytes() > 0);
+    /// ```
+    pub fn magnitude_index_bytes(&self) -> usize {
+        self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
+    }
+
     /// Mean over `windows` of the fraction of catalogue stars no fainter than each window's
     /// faint end: the stars a centroid may match in verification.
     fn window_fraction(&self, windows: &[[f32; 2]]) -> f64 {
