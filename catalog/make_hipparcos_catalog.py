@@ -23,7 +23,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--mag-limit", type=float, default=6.5)
     p.add_argument("--epoch", type=float, default=2000.0)
-    p.add_argument("--output", type=Path, default=ROOT / "python" / "starid" / "data" / "hipparcos_hp6.5_j2000.csv")
+    p.add_argument("--output", type=Path, default=ROOT / "rust" / "starid-core" / "data" / "hipparcos_hp6.5_j2000.csv")
     args = p.parse_args()
     cat = starid.Catalog.hipparcos(mag_limit=args.mag_limit, epoch=args.epoch)
     order = sorted(range(len(cat)), key=lambda i: int(cat.ids[i]))

@@ -131,7 +131,9 @@ def test_errors_are_typed() -> None:
 def test_index_is_built_once_for_threads_that_ask_at_once() -> None:
     from concurrent.futures import ThreadPoolExecutor
 
-    cat = starid.Catalog.from_csv(starid.DEFAULT_CATALOG_PATH)  # a new catalogue: nothing cached
+    import pickle
+
+    cat = pickle.loads(pickle.dumps(starid.Catalog.default()))  # a new catalogue: nothing cached
     with ThreadPoolExecutor(8) as pool:
         infos = list(pool.map(lambda _: cat.index_info(11.0, (512, 512)), range(8)))
     # One build: every thread gets the same index (the same build time, to the nanosecond).

@@ -13,7 +13,7 @@ the Rust core; see ARCHITECTURE.md.
 """
 
 from . import guide, pointing
-from ._catalog import DEFAULT_CATALOG_PATH, Catalog
+from ._catalog import Catalog
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._identify import (
     DEFAULT_FOV_RANGE_DEG,
@@ -32,7 +32,6 @@ from ._starid import __version__
 from .starlist import read_star_list
 
 __all__ = [
-    "DEFAULT_CATALOG_PATH",
     "DEFAULT_FOV_RANGE_DEG",
     "Camera",
     "Catalog",

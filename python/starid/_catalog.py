@@ -15,13 +15,10 @@ import numpy.typing as npt
 from . import _starid
 from ._errors import CatalogError
 
-__all__ = ["Catalog", "DEFAULT_CATALOG_PATH"]
+__all__ = ["Catalog"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-#: The bundled default catalogue: Hipparcos 2 stars brighter than Hp 6.5 at epoch J2000.0,
-#: ids = HIP numbers (made by ``catalog/make_hipparcos_catalog.py``).
-DEFAULT_CATALOG_PATH = Path(__file__).parent / "data" / "hipparcos_hp6.5_j2000.csv"
 
 _default: Optional["Catalog"] = None
 
@@ -225,7 +222,7 @@ class Catalog:
         """
         global _default
         if _default is None:
-            _default = cls._wrap(_starid.Catalog.from_table_path(os.fspath(DEFAULT_CATALOG_PATH)), "Hipparcos Hp<=6.5 J2000 (bundled)")
+            _default = cls._wrap(_starid.Catalog.bundled(), "Hipparcos Hp<=6.5 J2000 (bundled)")
         return _default
 
     # ----------------------------------------------------------------------------- views

@@ -13,7 +13,6 @@
 //! (a zero point the solver is not told).
 #![allow(clippy::print_stdout)]
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use starid_core::{Catalog, Family, IdentifyConfig, Method, Solver};
@@ -43,11 +42,9 @@ fn main() {
         config.max_pairs_visited = v.parse().expect("STARID_MAX_PAIRS");
         config.max_hypotheses = usize::MAX;
     }
-    let bundled = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
     for family in families {
         let catalog = if family == Family::K1 {
-            Catalog::from_path(&bundled).expect("bundled catalogue")
+            Catalog::bundled()
         } else {
             let Ok(path) = std::env::var("STARID_HIP2") else {
                 println!("{}: skipped (set STARID_HIP2 to hip2.dat)", family.name());

@@ -12,7 +12,6 @@
 //! first without their magnitudes (what tetra3-style solvers take).
 #![allow(clippy::print_stdout)]
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
@@ -83,9 +82,7 @@ fn main() {
     let frames: u64 = args.get(1).map_or(1000, |a| a.parse().expect("FRAMES"));
     let repeat: usize = args.get(2).map_or(1, |a| a.parse().expect("REPEAT"));
     let filter = args.get(3).cloned().unwrap_or_default();
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
-    let catalog = Arc::new(Catalog::from_path(path).expect("bundled catalogue"));
+    let catalog = Arc::new(Catalog::bundled());
     let mut config = IdentifyConfig::default();
     if let Ok(v) = std::env::var("STARID_MAX_WORK") {
         config.max_pairs_visited = v.parse().expect("STARID_MAX_WORK");

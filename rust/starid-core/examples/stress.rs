@@ -2,7 +2,6 @@
 //! stress -- [N...]`), with and without magnitudes; prints the time and the work of each.
 #![allow(clippy::print_stdout)]
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use rand::{Rng, SeedableRng};
@@ -18,9 +17,7 @@ fn main() {
     } else {
         args
     };
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
-    let catalog = Arc::new(Catalog::from_path(path).expect("bundled catalogue"));
+    let catalog = Arc::new(Catalog::bundled());
     let camera = Camera::from_fov(12f64.to_radians(), 1024.0, 1024.0).expect("camera");
     let solver = Solver::for_camera(catalog, &camera).expect("index");
     let mut rng = rand::rngs::StdRng::seed_from_u64(1);

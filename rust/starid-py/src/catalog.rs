@@ -81,6 +81,12 @@ impl PyCatalog {
         ))
     }
 
+    /// The bundled catalogue (compiled into the core).
+    #[staticmethod]
+    fn bundled(py: Python<'_>) -> Self {
+        Self::wrap(py.detach(Catalog::bundled))
+    }
+
     /// Read a star table (CSV, TSV or whitespace; with or without a header).
     #[staticmethod]
     fn from_table_path(py: Python<'_>, path: PathBuf) -> PyResult<Self> {

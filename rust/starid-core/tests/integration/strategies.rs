@@ -1,6 +1,5 @@
 //! Proptest strategies and shared fixtures.
 
-use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 use nalgebra::{Rotation3, Unit, Vector3};
@@ -48,9 +47,7 @@ pub fn rotation() -> impl Strategy<Value = Rotation3<f64>> {
 pub fn bundled() -> Arc<Catalog> {
     static CAT: OnceLock<Arc<Catalog>> = OnceLock::new();
     CAT.get_or_init(|| {
-        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../../python/starid/data/hipparcos_hp6.5_j2000.csv");
-        Arc::new(Catalog::from_path(path).expect("bundled catalogue"))
+        Arc::new(Catalog::bundled())
     })
     .clone()
 }
