@@ -19,6 +19,8 @@ pub enum ErrorKind {
     },
     /// Reading a file failed.
     Io(std::io::ErrorKind),
+    /// A batch was cancelled through its flag before it finished.
+    Cancelled,
 }
 
 /// An error of starid-core: a kind plus a human-readable message.
@@ -54,6 +56,19 @@ impl Error {
         Self {
             kind: ErrorKind::Catalog { line },
             message: message.into(),
+        }
+    }
+
+    /// A batch stopped by its cancel flag.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::Error::cancelled().kind(), &starid_core::ErrorKind::Cancelled);
+    /// ```
+    pub fn cancelled() -> Self {
+        Self {
+            kind: ErrorKind::Cancelled,
+            message: "cancelled".into(),
         }
     }
 

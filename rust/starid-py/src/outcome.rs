@@ -349,7 +349,6 @@ impl PyIdentification {
             Status::Timeout,
             Status::TooFewStars,
             Status::InvalidInput,
-            Status::Cancelled,
         ]
         .into_iter()
         .map(|s| s.as_str())

@@ -58,6 +58,10 @@ pub use cache::SolverCache;
 pub use magbins::MagPairIndex;
 pub(crate) use verify::binomial_tail;
 
+/// Frames a batch runs between two looks at its cancel flag (and the most results a cancelled
+/// batch has allocated beyond the chunks it finished).
+pub const BATCH_CHUNK: usize = 16_384;
+
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
 
@@ -347,8 +351,6 @@ pub enum Status {
     /// In a batch, a frame whose input is malformed (see [`Identification::message`]); alone,
     /// [`Solver::identify`] returns the error instead.
     InvalidInput,
-    /// In a batch, a frame left when the batch was cancelled.
-    Cancelled,
 }
 
 impl Status {
@@ -367,7 +369,6 @@ impl Status {
             Self::Timeout => "timeout",
             Self::TooFewStars => "too_few_stars",
             Self::InvalidInput => "invalid_input",
-            Self::Cancelled => "cancelled",
         }
     }
 }
@@ -1057,11 +1058,12 @@ impl Solver {
     }
 
     /// As [`Solver::identify_batch`], checking `cancel` before each frame: once it is set, the
-    /// frames not begun get status [`Status::Cancelled`] (a frame ends within the search's work
-    /// budget, so a batch stops within about one frame's time per thread).
+    /// batch returns `ErrorKind::Cancelled` within about one frame's time per thread (a frame
+    /// ends within the search's work budget) plus a chunk's bookkeeping. Frames run in chunks
+    /// of [`BATCH_CHUNK`], so a cancelled batch of millions allocates only what it finished.
     ///
     /// # Errors
-    /// As [`Solver::identify_batch`].
+    /// As [`Solver::identify_batch`]; `Cancelled` once `cancel` is set.
     ///
     /// # Example
     /// ```
@@ -1073,9 +1075,9 @@ impl Solver {
     /// use std::sync::atomic::AtomicBool;
     /// let frames: Vec<_> = (0..4).map(|s| simulate(&cat, &cam, &SimConfig::default(), s).unwrap()).collect();
     /// let refs: Vec<_> = frames.iter().map(|f| (f.centroids.as_slice(), None)).collect();
-    /// let stop = AtomicBool::new(true); // already cancelled: every frame says so
-    /// let ids = solver.identify_batch_until(&refs, &cam, &IdentifyConfig::default(), None, &stop).unwrap();
-    /// assert!(ids.iter().all(|i| i.status == starid_core::Status::Cancelled));
+    /// let stop = AtomicBool::new(true); // already cancelled
+    /// let e = solver.identify_batch_until(&refs, &cam, &IdentifyConfig::default(), None, &stop).unwrap_err();
+    /// assert_eq!(e.kind(), &starid_core::ErrorKind::Cancelled);
     /// ```
     pub fn identify_batch_until(
         &self,
@@ -1088,12 +1090,8 @@ impl Solver {
         config.validate()?;
         let one = |f: &FrameRef<'_>| -> Identification {
             if cancel.load(Ordering::Relaxed) {
-                return Identification::unidentified(
-                    Status::Cancelled,
-                    f.0.len(),
-                    0,
-                    Duration::ZERO,
-                );
+                // Nothing is looked at; the chunk's end reports the cancellation.
+                return Identification::unidentified(Status::NoMatch, 0, 0, Duration::ZERO);
             }
             self.identify(f.0, f.1, camera, config).unwrap_or_else(|e| {
                 let mut id = Identification::unidentified(
@@ -1106,21 +1104,34 @@ impl Solver {
                 id
             })
         };
+        let run = || -> Result<Vec<Identification>> {
+            let mut out = Vec::with_capacity(frames.len().min(BATCH_CHUNK));
+            for chunk in frames.chunks(BATCH_CHUNK) {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(Error::cancelled());
+                }
+                #[cfg(feature = "parallel")]
+                if threads != Some(1) && chunk.len() > 1 {
+                    use rayon::prelude::*;
+                    out.par_extend(chunk.par_iter().map(one));
+                    continue;
+                }
+                out.extend(chunk.iter().map(one));
+            }
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::cancelled());
+            }
+            Ok(out)
+        };
         #[cfg(feature = "parallel")]
-        if threads != Some(1) && frames.len() > 1 {
-            use rayon::prelude::*;
-            let run = || frames.par_iter().map(one).collect::<Vec<_>>();
-            return match threads {
-                None => Ok(run()),
-                Some(t) => Ok(rayon::ThreadPoolBuilder::new()
-                    .num_threads(t)
-                    .build()
-                    .map_err(|e| Error::invalid_input(format!("cannot start {t} threads: {e}")))?
-                    .install(run)),
-            };
+        if let Some(t) = threads.filter(|&t| t > 1) {
+            return rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .map_err(|e| Error::invalid_input(format!("cannot start {t} threads: {e}")))?
+                .install(run);
         }
-        let _ = threads;
-        Ok(frames.iter().map(one).collect())
+        run()
     }
 }
 
