@@ -12,7 +12,7 @@ The heavy lifting (k-vector pair index, Pyramid search, verification, attitude) 
 the Rust core; see ARCHITECTURE.md.
 """
 
-from . import guide, pointing
+from . import guide, pointing, tracking
 from ._catalog import Catalog
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._identify import (
@@ -30,6 +30,7 @@ from ._identify import (
 )
 from ._starid import __version__
 from .starlist import read_star_list
+from .tracking import SequenceFrame, Tracker, TrackStep, simulate_sequence, track
 
 __all__ = [
     "DEFAULT_FOV_RANGE_DEG",
@@ -38,6 +39,9 @@ __all__ = [
     "CatalogError",
     "Frame",
     "Identification",
+    "SequenceFrame",
+    "TrackStep",
+    "Tracker",
     "IdentifyConfig",
     "InvalidInputError",
     "METHODS",
@@ -51,4 +55,7 @@ __all__ = [
     "read_star_list",
     "simulate",
     "simulate_scene",
+    "simulate_sequence",
+    "track",
+    "tracking",
 ]

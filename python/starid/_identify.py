@@ -200,6 +200,9 @@ def identify(
     camera: Optional[Any] = None,
     fov_range_deg: Optional[tuple[float, float]] = None,
     magnitudes: Optional[npt.ArrayLike] = None,
+    attitude_hint: Optional[Any] = None,
+    hint_uncertainty_deg: float = 1.0,
+    hint_fallback: bool = True,
     config: Optional[Any] = None,
     **settings: Any,
 ) -> Identification:
@@ -229,6 +232,18 @@ def identify(
         which is fast), and a centroid more than 1 mag (or 5 robust sigma) brighter than its
         catalogue star, after the frame's fitted offset, is left unidentified: usually a false
         star on the spot of a star too faint to be seen.
+    attitude_hint : Identification, quaternion or (ra_deg, dec_deg, roll_deg), optional
+        The attitude roughly known (tracking): a previous result (its attitude and
+        handedness), a quaternion ``[w, x, y, z]`` ICRS -> camera as results report it, or
+        RA/Dec/roll in degrees. Spots are matched to the stars the hint predicts within
+        ``hint_uncertainty_deg``; the false-match bound counts that region instead of the whole
+        sky, so a tight hint can name a frame of 2 or 3 stars. The result's ``hinted`` says
+        whether the hint found it. Needs a known field of view.
+    hint_uncertainty_deg : float
+        How far the true attitude may be from the hint (rotation angle, degrees, at most 20).
+    hint_fallback : bool
+        When nothing within the hint verifies: identify lost in space (True, default) or
+        report ``no_match`` (False). A wrong hint never yields a wrong identification.
     config : IdentifyConfig, optional
         Settings as one object; keywords below override them.
     **settings
@@ -316,7 +331,50 @@ def identify(
         return _starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg)
     if fov_range_deg is not None:
         raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
+    if attitude_hint is not None:
+        q, mirrored = _hint(attitude_hint)
+        return _starid.identify_hinted(
+            cat._native, a, m, cam, cfg, q, _positive("hint_uncertainty_deg", hint_uncertainty_deg), mirrored, bool(hint_fallback)
+        )
     return _starid.identify(cat._native, a, m, cam, cfg)
+
+
+def _positive(name: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as e:
+        raise InvalidInputError(f"{name} must be a number, got {value!r}") from e
+    if not (math.isfinite(v) and v > 0):
+        raise InvalidInputError(f"{name} must be positive and finite, got {value!r}")
+    return v
+
+
+def _hint(hint: Any) -> tuple[list[float], Optional[bool]]:
+    """``[w, x, y, z]`` and the handedness (None: unknown) of an attitude hint."""
+    if isinstance(hint, Identification):
+        if not hint.ok or hint.quaternion is None:
+            raise InvalidInputError("attitude_hint is an identification without a solution")
+        return [float(v) for v in hint.quaternion], bool(hint.mirrored)
+    try:
+        v = np.asarray(hint, dtype=np.float64).ravel()
+    except (TypeError, ValueError) as e:
+        raise InvalidInputError(f"attitude_hint must be a quaternion [w, x, y, z] or (ra_deg, dec_deg, roll_deg): {e}") from e
+    if not np.all(np.isfinite(v)):
+        raise InvalidInputError(f"attitude_hint must be finite, got {hint!r}")
+    if v.size == 4:
+        return [float(x) for x in v], None
+    if v.size == 3:
+        ra, dec, roll = (math.radians(float(x)) for x in v)
+        if abs(dec) > math.pi / 2:
+            raise InvalidInputError(f"attitude_hint declination must be in [-90, 90] degrees, got {v[1]}")
+        return _radec_roll_quaternion(ra, dec, roll), None
+    raise InvalidInputError(f"attitude_hint must be a quaternion [w, x, y, z] or (ra_deg, dec_deg, roll_deg), got {v.size} values")
+
+
+def _radec_roll_quaternion(ra: float, dec: float, roll: float) -> list[float]:
+    """``[w, x, y, z]`` of the attitude at boresight (ra, dec) and roll (radians), by the core's
+    convention (see ``Identification.roll_deg``)."""
+    return [float(x) for x in _starid.quaternion_from_radec_roll(ra, dec, roll)]
 
 
 def identify_many(
@@ -328,6 +386,9 @@ def identify_many(
     camera: Optional[Any] = None,
     fov_range_deg: Optional[tuple[float, float]] = None,
     magnitudes: Optional[Sequence[Optional[npt.ArrayLike]]] = None,
+    attitude_hint: Optional[Any] = None,
+    hint_uncertainty_deg: float = 1.0,
+    hint_fallback: bool = True,
     threads: Optional[int] = None,
     config: Optional[Any] = None,
     **settings: Any,
@@ -338,8 +399,9 @@ def identify_many(
     batch: its result has status ``"invalid_input"`` and the reason, naming the frame, in
     ``message``. Ctrl-C stops the batch within a frame's time and raises KeyboardInterrupt.
 
-    Arguments as :func:`identify` (every one of them, ``fov_range_deg`` and the settings
-    included); ``frames`` is a sequence of (N_i, 2) centroid arrays and
+    Arguments as :func:`identify` (every one of them, ``fov_range_deg``, the hint and the
+    settings included; ``attitude_hint`` is one hint for every frame or a list of one per frame,
+    None entries identified lost in space); ``frames`` is a sequence of (N_i, 2) centroid arrays and
     ``magnitudes`` an optional sequence of per-frame magnitude arrays (or None entries).
     ``threads`` limits the worker threads (None: all cores); ``timeout_s`` applies to each
     frame. Results come in input order and
@@ -380,7 +442,14 @@ def identify_many(
         raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
     cfg = _config(config, settings)
     if cam is None:
+        if attitude_hint is not None:
+            raise InvalidInputError("an attitude hint needs a known field of view (fov_deg or camera)")
         results = _unknown_fov_batch(cat, xys, mags_or_none, (w, h), (lo, hi), cfg, threads, bad)
+    elif attitude_hint is not None:
+        results = _hinted_batch(
+            cat, cam, xys, mags_or_none, attitude_hint, _positive("hint_uncertainty_deg", hint_uncertainty_deg),
+            bool(hint_fallback), cfg, threads, bad,
+        )
     else:
         results = _starid.identify_many(cat._native, xys, mags, cam, cfg, None if threads is None else int(threads))
     for i, msg in bad.items():
@@ -390,6 +459,43 @@ def identify_many(
         if r.message is not None and not r.message.startswith("frame "):
             results[i] = _invalid(f"frame {i}: {r.message}", len(r.ids))
     return results
+
+
+def _hinted_batch(
+    cat: Catalog,
+    cam: Any,
+    xys: list[npt.NDArray[np.float64]],
+    mags: list[Optional[npt.NDArray[np.float64]]],
+    attitude_hint: Any,
+    uncertainty_deg: float,
+    fallback: bool,
+    cfg: Any,
+    threads: Optional[int],
+    bad: dict[int, str],
+) -> list[Identification]:
+    """Frames with attitude hints, on a thread pool (each call releases the GIL)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    per_frame = isinstance(attitude_hint, (list, tuple)) and len(attitude_hint) == len(xys) and not (
+        len(xys) in (3, 4) and all(isinstance(v, (int, float)) for v in attitude_hint)
+    )
+    hints = [
+        None if h is None else _hint(h) for h in (attitude_hint if per_frame else [attitude_hint] * len(xys))
+    ]
+
+    def one(i: int) -> Identification:
+        if i in bad:
+            return _invalid(bad[i], 0)
+        try:
+            h = hints[i]
+            if h is None:
+                return _starid.identify(cat._native, xys[i], mags[i], cam, cfg)
+            return _starid.identify_hinted(cat._native, xys[i], mags[i], cam, cfg, h[0], uncertainty_deg, h[1], fallback)
+        except ValueError as e:
+            return _invalid(f"frame {i}: {e}", len(xys[i]))
+
+    with ThreadPoolExecutor(max_workers=threads or os.cpu_count() or 1) as pool:
+        return list(pool.map(one, range(len(xys))))
 
 
 def _unknown_fov_batch(
@@ -422,7 +528,7 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message)
+    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message, False)
     return Identification._from_state(state)
 
 

@@ -14,6 +14,7 @@ __all__ = [
     "IdentifyConfig",
     "InvalidInputError",
     "StaridError",
+    "Tracker",
     "GUIDE_MAX_TRIALS",
     "INCONSISTENT_RMS_PX",
     "__version__",
@@ -27,13 +28,16 @@ __all__ = [
     "choose_stars",
     "fit_pointing",
     "identify",
+    "identify_hinted",
     "identify_many",
     "identify_unknown_fov",
     "methods",
+    "quaternion_from_radec_roll",
     "monte_carlo_distances",
     "predicted_distance_covariance",
     "simulate",
     "simulate_scene",
+    "simulate_sequence",
 ]
 
 __version__: str
@@ -197,6 +201,8 @@ class Identification:
     @property
     def mirrored(self) -> bool: ...
     @property
+    def hinted(self) -> bool: ...
+    @property
     def false_match_probability(self) -> float: ...
     @property
     def n_matched(self) -> int: ...
@@ -322,3 +328,53 @@ def identify_unknown_fov(
     fov_hi_deg: float,
     config: IdentifyConfig,
 ) -> Identification: ...
+
+def identify_hinted(
+    catalog: Catalog,
+    xy: npt.NDArray[np.float64],
+    magnitudes: Optional[npt.NDArray[np.float64]],
+    camera: Camera,
+    config: IdentifyConfig,
+    hint_wxyz: list[float],
+    uncertainty_deg: float,
+    mirrored: Optional[bool],
+    fallback: bool,
+) -> Identification: ...
+def quaternion_from_radec_roll(ra_rad: float, dec_rad: float, roll_rad: float) -> list[float]: ...
+def simulate_sequence(
+    catalog: Catalog,
+    camera: Camera,
+    frames: int,
+    seed: int,
+    frame_rate_hz: float = 10.0,
+    rate_deg_s: float = 1.0,
+    jitter_deg: float = 0.001,
+    exposure_s: float = 0.02,
+    blank: Optional[tuple[int, int]] = None,
+    mag_limit: Optional[float] = None,
+    noise_px: float = 0.5,
+    mag_noise: float = 0.1,
+    false_stars: int = 0,
+    false_stars_max: Optional[int] = None,
+    catalog_false_mags: bool = True,
+) -> list[dict[str, Any]]: ...
+
+@final
+class Tracker:
+    """The core tracker with its solver and camera."""
+
+    def __new__(
+        cls,
+        catalog: Catalog,
+        camera: Camera,
+        config: IdentifyConfig,
+        max_rate_deg_s: float,
+        min_uncertainty_deg: float,
+        fallback: bool,
+    ) -> Tracker: ...
+    def update(
+        self, xy: npt.NDArray[np.float64], t_s: float, magnitudes: Optional[npt.NDArray[np.float64]] = None
+    ) -> dict[str, Any]: ...
+    def reset(self) -> None: ...
+    @property
+    def has_lock(self) -> bool: ...

@@ -117,6 +117,18 @@ def _parser() -> argparse.ArgumentParser:
     sel.add_argument("--cell-deg", type=float, help="rectangle method: cell size (default 5)")
     sel.add_argument("--level", type=int, help="QTM methods: mesh level (default 5)")
     sel.add_argument("--fov-deg", type=float, default=10.0, help="field for the metrics")
+    trk = sub.add_parser("track", help="identify a recorded sequence of centroid files, each from the last ones' attitude")
+    trk.add_argument("files", nargs="+", type=Path, help="star lists in time order: CSV or text, label,x,y[,mag] or x,y")
+    when = trk.add_mutually_exclusive_group(required=True)
+    when.add_argument("--times", help="frame times in seconds, comma-separated, one per file")
+    when.add_argument("--frame-rate-hz", type=float, help="frames taken at this rate, the first at t = 0")
+    trk.add_argument("--fov-deg", type=float, required=True, help="full field of view across the image width, degrees")
+    trk.add_argument("--size", type=_size, required=True, help="sensor size WIDTHxHEIGHT in pixels")
+    trk.add_argument("--catalog", type=Path, help="catalogue file; default: bundled Hipparcos")
+    trk.add_argument("--max-rate-deg-s", type=float, default=5.0, help="the fastest the camera may turn (default 5 deg/s)")
+    trk.add_argument("--no-magnitudes", action="store_true", help="ignore a magnitude column")
+    trk.add_argument("--json", action="store_true", help="print JSON (one object per frame)")
+
     plot = gsub.add_parser("plot", help="full-sky PNG of each method's guide stars (needs matplotlib)")
     plot.add_argument("output", type=Path, nargs="?", default=Path("guide_stars.png"))
     plot.add_argument("--catalog", type=Path)
@@ -417,6 +429,59 @@ def _guide(args: argparse.Namespace) -> int:
     return 0
 
 
+def _track(args: argparse.Namespace) -> int:
+    from .tracking import Tracker
+
+    files: list[Path] = list(args.files)
+    if args.times is not None:
+        try:
+            times = [float(t) for t in args.times.split(",")]
+        except ValueError:
+            print(f"starid track: --times takes numbers separated by commas, got {args.times!r}", file=sys.stderr)
+            return 2
+        if len(times) != len(files):
+            print(f"starid track: {len(times)} times for {len(files)} files", file=sys.stderr)
+            return 2
+    else:
+        if not (args.frame_rate_hz > 0 and args.frame_rate_hz < float("inf")):
+            print(f"starid track: --frame-rate-hz must be positive, got {args.frame_rate_hz}", file=sys.stderr)
+            return 2
+        times = [k / args.frame_rate_hz for k in range(len(files))]
+    tracker = Tracker(resolve_catalog(args.catalog), args.fov_deg, args.size, max_rate_deg_s=args.max_rate_deg_s)
+    show_progress = len(files) > 20 and not args.json and sys.stderr.isatty()
+    t0 = time.perf_counter()
+    failures = bad_input = identified = 0
+    for k, (path, t) in enumerate(zip(files, times)):
+        try:
+            stars = read_star_list(path)
+        except UnicodeDecodeError as e:
+            print(f"starid track: {path}: not UTF-8 text ({e.reason} at byte {e.start})", file=sys.stderr)
+            bad_input += 1
+            continue
+        except (ValueError, OSError) as e:
+            msg = str(e)
+            print(f"starid track: {msg if str(path) in msg else f'{path}: {msg}'}", file=sys.stderr)
+            bad_input += 1
+            continue
+        step = tracker.update(stars.xy, t, magnitudes=None if args.no_magnitudes else stars.magnitudes)
+        res = step.identification
+        identified += int(res.ok)
+        failures += int(not res.ok)
+        if args.json:
+            d = res.to_dict()
+            d.update(file=str(path), t_s=t, mode=step.mode, uncertainty_deg=None if step.uncertainty_deg != step.uncertainty_deg else step.uncertainty_deg,
+                     rate_deg_s=None if step.rate_deg_s is None else [float(v) for v in step.rate_deg_s])
+            print(json.dumps(d))
+        elif not show_progress:
+            att = f"RA {res.ra_deg:.4f} Dec {res.dec_deg:.4f} roll {res.roll_deg:.3f}" if res.ok else res.status
+            print(f"{path}  t={t:.3f}s  {step.mode:<13}  {res.n_matched:>3} stars  {att}  {1e6 * res.time_s:.0f} us")
+        if show_progress and (k % 50 == 49 or k == len(files) - 1):
+            _progress(k + 1, len(files), identified, time.perf_counter() - t0)
+    if bad_input:
+        return 2
+    return 1 if failures else 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``starid`` command."""
     args = _parser().parse_args(argv)
@@ -429,6 +494,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _guide(args)
         if args.command == "boresight":
             return _boresight(args)
+        if args.command == "track":
+            return _track(args)
         if args.command == "methods":
             for name, text in METHODS.items():
                 print(f"{name:<10} {text}")

@@ -65,12 +65,15 @@ pub(crate) mod lsq;
 pub mod pointing;
 pub mod simulate;
 pub(crate) mod sky;
+pub mod tracking;
 pub mod unknown_focal;
 
 pub use catalog::Catalog;
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Camera;
-pub use identify::{FrameRef, Identification, IdentifyConfig, Method, Solver, Status};
+pub use identify::{
+    AttitudeHint, FrameRef, HintFallback, Identification, IdentifyConfig, Method, Solver, Status,
+};
 pub use kvector::PairIndex;
 pub use simulate::{simulate, FalseStarMags, Family, SimConfig, SimFrame};
 pub use unknown_focal::FocalIdentification;

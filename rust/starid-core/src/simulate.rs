@@ -484,3 +484,142 @@ pub fn simulate(
     }
     Ok(frame)
 }
+
+/// A spacecraft's slew or tumble for [`simulate_sequence`]: frames at a fixed rate while the
+/// camera turns at a constant angular rate about a fixed body axis, with jitter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SequenceConfig {
+    /// Number of frames.
+    pub frames: usize,
+    /// Frame rate, Hz.
+    pub frame_rate_hz: f64,
+    /// Angular rate, radians per second, about a random body axis drawn from the seed.
+    pub rate_rad_s: f64,
+    /// Attitude jitter per frame, 1σ per axis, radians.
+    pub jitter_rad: f64,
+    /// Exposure time, seconds: each image smears along its motion, and the centroid noise along
+    /// the smear grows with its length (`σ·√(1 + (L/2)²)`, `L` in pixels).
+    pub exposure_s: f64,
+    /// Frames (indices) that see no star at all: only false spots (a loss of lock).
+    pub blank: std::ops::Range<usize>,
+    /// Every frame as [`simulate`] makes it (noise, false stars, magnitudes); its attitude is
+    /// ignored.
+    pub frame: SimConfig,
+}
+
+impl Default for SequenceConfig {
+    fn default() -> Self {
+        Self {
+            frames: 100,
+            frame_rate_hz: 10.0,
+            rate_rad_s: 1f64.to_radians(),
+            jitter_rad: 2e-5,
+            exposure_s: 0.02,
+            blank: 0..0,
+            frame: SimConfig::default(),
+        }
+    }
+}
+
+/// One frame of a sequence: its time and the frame with its truth.
+#[derive(Debug, Clone)]
+pub struct SequenceFrame {
+    /// Mid-exposure time, seconds from the first frame.
+    pub t_s: f64,
+    /// The frame (a blank frame holds only false spots).
+    pub frame: SimFrame,
+}
+
+/// Simulate a sequence (see [`SequenceConfig`]) drawn from `seed`.
+///
+/// # Errors
+/// `InvalidInput` for a non-positive frame rate, a negative or non-finite rate, jitter or
+/// exposure, more than 10 000 000 frames; as [`simulate`] otherwise.
+///
+/// # Example
+/// ```
+/// use starid_core::simulate::{random_catalog, simulate_sequence, SequenceConfig};
+/// let cat = random_catalog(8000, 1.0, 6.5, 1).unwrap();
+/// let cam = starid_core::Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+/// let seq = simulate_sequence(&cat, &cam, &SequenceConfig { frames: 5, ..Default::default() }, 3).unwrap();
+/// assert_eq!(seq.len(), 5);
+/// assert!((seq[1].t_s - 0.1).abs() < 1e-12);
+/// let turned = starid_core::geometry::rotation_angle_between(&seq[0].frame.r_icrs_to_cam, &seq[4].frame.r_icrs_to_cam);
+/// assert!((turned.to_degrees() - 0.4).abs() < 0.01);
+/// ```
+pub fn simulate_sequence(
+    catalog: &Catalog,
+    camera: &Camera,
+    config: &SequenceConfig,
+    seed: u64,
+) -> Result<Vec<SequenceFrame>> {
+    let ok = |v: f64| v.is_finite() && v >= 0.0;
+    let valid = config.frame_rate_hz.is_finite()
+        && config.frame_rate_hz > 0.0
+        && ok(config.rate_rad_s)
+        && ok(config.jitter_rad)
+        && ok(config.exposure_s);
+    if !valid {
+        return Err(Error::invalid_input(
+            "a sequence needs a positive frame rate and finite, non-negative rate, jitter and exposure",
+        ));
+    }
+    if config.frames > 10_000_000 {
+        return Err(Error::invalid_input(format!(
+            "a sequence holds at most 10 000 000 frames, got {}",
+            config.frames
+        )));
+    }
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5EC0_E7CE);
+    let r0 = config.frame.r_icrs_to_cam.unwrap_or_else(|| random_rotation(&mut rng));
+    let axis = nalgebra::Unit::new_normalize(Vector3::from_fn(|_, _| {
+        StandardNormal.sample(&mut rng)
+    }));
+    let dt = 1.0 / config.frame_rate_hz;
+    let jitter = Normal::new(0.0, config.jitter_rad.max(1e-300)).expect("finite jitter");
+    let mut out = Vec::with_capacity(config.frames);
+    for k in 0..config.frames {
+        let t = k as f64 * dt;
+        // The camera turns about its body axis: cam(t) = Rot(axis, −ω t) · cam(0).
+        let turn = Rotation3::from_axis_angle(&axis, -config.rate_rad_s * t);
+        let shake = Rotation3::new(Vector3::from_fn(|_, _| jitter.sample(&mut rng)));
+        let r = shake * turn * r0;
+        let mut frame_cfg = SimConfig {
+            r_icrs_to_cam: Some(r),
+            ..config.frame.clone()
+        };
+        let blank = config.blank.contains(&k);
+        if blank {
+            frame_cfg.mag_limit = Some(-100.0);
+        }
+        let frame_seed = seed.wrapping_mul(0x9E37_79B9).wrapping_add(k as u64);
+        let mut frame = simulate(catalog, camera, &frame_cfg, frame_seed)?;
+        // Smear: the image moves by the rotation over the exposure; the centroid noise along it
+        // grows with its length.
+        let half = Rotation3::from_axis_angle(&axis, -0.5 * config.rate_rad_s * config.exposure_s);
+        if config.exposure_s > 0.0 && config.rate_rad_s > 0.0 {
+            for c in &mut frame.centroids {
+                let v = camera.pixel_to_cam(c[0], c[1], frame.mirrored);
+                let (Some(a), Some(b)) = (
+                    camera.cam_to_pixel(&(half.inverse() * v)),
+                    camera.cam_to_pixel(&(half * v)),
+                ) else {
+                    continue;
+                };
+                let (mut dx, dy) = (b.0 - a.0, b.1 - a.1);
+                if frame.mirrored {
+                    dx = -dx;
+                }
+                let len = dx.hypot(dy);
+                if len > 1e-9 {
+                    let extra = config.frame.noise_px * (0.25 * len * len).sqrt();
+                    let u: f64 = StandardNormal.sample(&mut rng);
+                    c[0] += u * extra * dx / len;
+                    c[1] += u * extra * dy / len;
+                }
+            }
+        }
+        out.push(SequenceFrame { t_s: t, frame });
+    }
+    Ok(out)
+}

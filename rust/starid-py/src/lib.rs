@@ -13,6 +13,7 @@ mod errors;
 mod guide;
 mod outcome;
 mod pointing;
+mod tracking;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -452,6 +453,10 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_class::<PyCatalog>()?;
     m.add_class::<PyCamera>()?;
+    m.add_class::<tracking::PyTracker>()?;
+    m.add_function(wrap_pyfunction!(tracking::identify_hinted, m)?)?;
+    m.add_function(wrap_pyfunction!(tracking::simulate_sequence, m)?)?;
+    m.add_function(wrap_pyfunction!(tracking::quaternion_from_radec_roll, m)?)?;
     m.add_class::<PyIdentifyConfig>()?;
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;

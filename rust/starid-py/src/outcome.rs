@@ -99,6 +99,7 @@ pub struct PyIdentification {
     status: &'static str,
     method: &'static str,
     message: Option<String>,
+    hinted: bool,
     ids: Vec<i64>,
     residuals_arcsec: Vec<f64>,
     rotation: Option<Rotation3<f64>>,
@@ -129,6 +130,7 @@ impl PyIdentification {
             status: id.status.as_str(),
             method: id.method.name(),
             message: id.message.clone(),
+            hinted: id.hinted,
             ids: ids_of(catalog, &id.catalog_index),
             residuals_arcsec: id
                 .residuals_rad
@@ -174,6 +176,7 @@ type State = (
     usize,
     String,
     Option<String>,
+    bool,
 );
 
 /// NaN as None: JSON has no NaN.
@@ -259,6 +262,12 @@ impl PyIdentification {
     fn mirrored(&self) -> bool {
         self.mirrored
     }
+    /// Found from an attitude hint (tracking); False for lost in space, including a hinted
+    /// call's fallback.
+    #[getter]
+    fn hinted(&self) -> bool {
+        self.hinted
+    }
     #[getter]
     fn false_match_probability(&self) -> f64 {
         self.false_match_probability
@@ -320,6 +329,7 @@ impl PyIdentification {
             me.hypotheses,
             me.method.to_string(),
             me.message.clone(),
+            me.hinted,
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
     }
@@ -338,6 +348,7 @@ impl PyIdentification {
             hypotheses,
             method,
             message,
+            hinted,
         ) = state;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
@@ -375,6 +386,7 @@ impl PyIdentification {
             status,
             method,
             message,
+            hinted,
             ids,
             residuals_arcsec,
             rotation,
@@ -402,6 +414,7 @@ impl PyIdentification {
         d.set_item("status", self.status)?;
         d.set_item("method", self.method)?;
         d.set_item("message", self.message.as_deref())?;
+        d.set_item("hinted", self.hinted)?;
         d.set_item("ra_deg", json_float(py, ra)?)?;
         d.set_item("dec_deg", json_float(py, dec)?)?;
         d.set_item("roll_deg", json_float(py, roll)?)?;

@@ -49,12 +49,14 @@ use crate::geometry::Camera;
 use crate::kvector::PairIndex;
 
 mod cache;
+mod hinted;
 mod magbins;
 mod pyramid;
 mod verify;
 mod voting;
 
 pub use cache::SolverCache;
+pub use hinted::{AttitudeHint, HintFallback, HINT_SEARCH_STARS, MAX_HINT_UNCERTAINTY_RAD};
 pub use magbins::MagPairIndex;
 pub(crate) use verify::binomial_tail;
 
@@ -403,6 +405,9 @@ pub struct Identification {
     pub method: Method,
     /// Why a batch frame has status [`Status::InvalidInput`]; `None` otherwise.
     pub message: Option<String>,
+    /// Found by the hinted (tracking) search of [`Solver::identify_hinted`]; false for lost in
+    /// space, including a hinted call's fallback.
+    pub hinted: bool,
 }
 
 impl Identification {
@@ -442,6 +447,7 @@ impl Identification {
             elapsed,
             method: Method::Auto,
             message: None,
+            hinted: false,
         }
     }
 }
@@ -711,8 +717,14 @@ impl Solver {
             .iter()
             .map(|c| camera.pixel_to_cam(c[0], c[1], false))
             .collect();
-        let obs_mirrored: Vec<Vector3<f64>> =
-            obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)).collect();
+        let obs_mirrored: Vec<Vector3<f64>> = if camera.is_ideal() {
+            obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)).collect()
+        } else {
+            centroids
+                .iter()
+                .map(|c| camera.pixel_to_cam(c[0], c[1], true))
+                .collect()
+        };
         let mut order: Vec<usize> = (0..n).collect();
         if let Some(m) = magnitudes {
             order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
@@ -721,24 +733,7 @@ impl Solver {
             Some(s) => std::slice::from_ref(s),
             None => &SIGMA_LADDER_PX,
         };
-        // Magnitudes fit the catalogue's system when most centroids' windows hold catalogue
-        // stars; an arbitrary instrument zero point (or magnitudes that mislead) puts them
-        // outside, and the frame is searched without the gate.
-        let gated = match (magnitudes, config.mag_offset) {
-            (Some(m), Some(off)) => {
-                let tol = config.mag_tolerance;
-                let sorted = &self.mag_sorted;
-                let fitting = m
-                    .iter()
-                    .filter(|&&mi| {
-                        let (lo, hi) = ((mi - off - tol) as f32, (mi - off + tol) as f32);
-                        sorted.partition_point(|&x| x < lo) < sorted.partition_point(|&x| x <= hi)
-                    })
-                    .count();
-                2 * fitting > n
-            }
-            _ => false,
-        };
+        let gated = self.magnitudes_fit(magnitudes, config);
         let passes = self.passes(n, ladder, magnitudes.is_some(), gated, config);
         // Catalogue-magnitude windows of each centroid (known zero point): the tight one first
         // (fewer hypotheses compete, so a solution of few stars can pass the bound), then the
@@ -789,6 +784,7 @@ impl Solver {
             scratch,
             stride,
             method: config.method,
+            hint: None,
         };
         let mut status = Status::NoMatch;
         for pass in passes {
@@ -864,6 +860,27 @@ impl Solver {
         let mut id = Identification::unidentified(status, n, hypotheses, start.elapsed());
         id.method = config.method;
         Ok(id)
+    }
+
+    /// Whether the centroids' magnitudes fit the catalogue's system (after `mag_offset`): most
+    /// centroids' windows hold catalogue stars. An arbitrary instrument zero point (or
+    /// magnitudes that mislead) puts them outside, and the frame is searched without the gate.
+    fn magnitudes_fit(&self, magnitudes: Option<&[f64]>, config: &IdentifyConfig) -> bool {
+        match (magnitudes, config.mag_offset) {
+            (Some(m), Some(off)) => {
+                let tol = config.mag_tolerance;
+                let sorted = &self.mag_sorted;
+                let fitting = m
+                    .iter()
+                    .filter(|&&mi| {
+                        let (lo, hi) = ((mi - off - tol) as f32, (mi - off + tol) as f32);
+                        sorted.partition_point(|&x| x < lo) < sorted.partition_point(|&x| x <= hi)
+                    })
+                    .count();
+                2 * fitting > m.len()
+            }
+            _ => false,
+        }
     }
 
     /// The passes of one identification, in order.
@@ -1279,6 +1296,9 @@ struct Search<'a> {
     stride: usize,
     /// The method of the current pass.
     method: Method,
+    /// Set in hinted (tracking) identification: what the false-match bound counts instead of
+    /// a search of the whole sky.
+    hint: Option<hinted::HintPrior>,
 }
 
 /// A verified solution.
@@ -1315,6 +1335,7 @@ impl Verified {
             elapsed,
             method: Method::Auto,
             message: None,
+            hinted: false,
         }
     }
 }

@@ -76,7 +76,7 @@ impl Search<'_> {
         let mut fixed_point = false;
         for _ in 0..4 {
             matched = self.match_all(&r, obs, radius, sigma);
-            if matched < 3 {
+            if matched < self.min_fit() {
                 return None;
             }
             let s = &mut self.scratch;
@@ -97,9 +97,23 @@ impl Search<'_> {
                 .zip(r_m)
                 .map(|(o, c)| (o - r * c).norm_squared())
                 .sum();
-            // E|d|² = 2σ² per star, less the three attitude degrees of freedom.
+            // E|d|² = 2σ² per star, less the three attitude degrees of freedom; with enough
+            // matches the median residual instead (|d| is Rayleigh: median 1.1774σ), so that a
+            // coincidence far out cannot widen the radius for more of its kind.
             let dof = (2 * matched).saturating_sub(3).max(1) as f64;
-            sigma = (sum_sq / dof).sqrt().max(0.5 * sigma_rad);
+            let rms_sigma = (sum_sq / dof).sqrt();
+            let est = if matched >= ROBUST_SIGMA_MIN_MATCHES {
+                let d = &mut s.mag_offsets;
+                d.clear();
+                d.extend(o_m.iter().zip(r_m).map(|(o, c)| (o - r * c).norm()));
+                d.sort_unstable_by(f64::total_cmp);
+                let k = d.len();
+                let median = 0.5 * (d[(k - 1) / 2] + d[k / 2]);
+                (median / 1.1774).min(rms_sigma)
+            } else {
+                rms_sigma
+            };
+            sigma = est.max(0.5 * sigma_rad);
             // Never below the step's own radius: residuals of a (possibly false) fit must not
             // talk the radius down, or the false-match bound would be computed after the fact.
             let new_radius = (4.0 * sigma).max(MATCH_RADIUS_SIGMAS * sigma_rad) + 1e-7;
@@ -112,10 +126,18 @@ impl Search<'_> {
         if !fixed_point {
             matched = self.match_all(&r, obs, radius, sigma);
         }
-        if self.drop_too_bright() > 0 {
+        // Tracking names frames of few stars among many spots: there a false spot on a
+        // catalogue star too faint to be imaged must not count (see `drop_unseen_magnitudes`).
+        let unseen = if self.hint.is_some() {
+            self.drop_unseen_magnitudes(&r, mirrored)
+        } else {
+            0
+        };
+        let dropped = self.drop_too_bright() + unseen;
+        if dropped > 0 {
             // Fewer matches: refit, and the bound below only grows.
             matched = self.collect_matched(obs);
-            if matched < 3 {
+            if matched < self.min_fit() {
                 return None;
             }
             r = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)?;
@@ -345,6 +367,65 @@ impl Search<'_> {
         dropped
     }
 
+    /// Unmatch centroids whose catalogue star lies in a magnitude range the camera mostly does
+    /// not see in this frame: of the catalogue stars on the sensor within
+    /// ±[`COMPLETENESS_HALF_WIDTH_MAG`] of the star's magnitude, at least
+    /// [`COMPLETENESS_MIN_STARS`] and fewer than [`COMPLETENESS_MIN_FRACTION`] are matched. Such
+    /// a match is a false spot on a star too faint to be imaged (the catalogue is deeper than the
+    /// camera), not a detection. Needs no magnitudes of the spots. Returns how many.
+    pub(super) fn drop_unseen_magnitudes(&mut self, r: &Rotation3<f64>, mirrored: bool) -> usize {
+        let catalog = &*self.solver.catalog;
+        let (cat_mag, cat) = (catalog.mag(), catalog.vectors());
+        let cam = self.camera;
+        let s = &mut self.scratch;
+        // Matched stars, sorted, for look-ups.
+        s.fitted.clear();
+        s.fitted.extend(s.matches.iter().filter_map(|m| m.map(|(c, _)| Some(c))));
+        if s.fitted.len() < 2 {
+            return 0;
+        }
+        let mut matched: Vec<u32> = s.fitted.iter().map(|c| c.unwrap_or(0)).collect();
+        matched.sort_unstable();
+        // Catalogue stars imaged on the sensor: (magnitude, matched?), by magnitude.
+        let mut on_sensor: Vec<(f64, bool)> = Vec::new();
+        let boresight = r.inverse_transform_vector(&Vector3::z());
+        catalog.for_each_in_cone(&boresight, 0.5 * cam.diagonal_fov_rad(), |star, _| {
+            if let Some((mut x, y)) = cam.cam_to_pixel(&(r * cat[star as usize])) {
+                if mirrored {
+                    x = cam.width_px - x;
+                }
+                if (0.0..cam.width_px).contains(&x) && (0.0..cam.height_px).contains(&y) {
+                    on_sensor.push((
+                        cat_mag[star as usize],
+                        matched.binary_search(&star).is_ok(),
+                    ));
+                }
+            }
+        });
+        on_sensor.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let mags: Vec<f64> = on_sensor.iter().map(|x| x.0).collect();
+        let mut seen_before = vec![0usize; on_sensor.len() + 1];
+        for (k, x) in on_sensor.iter().enumerate() {
+            seen_before[k + 1] = seen_before[k] + usize::from(x.1);
+        }
+        let mut dropped = 0;
+        for m in s.matches.iter_mut() {
+            let Some((star, _)) = *m else { continue };
+            let mag = cat_mag[star as usize];
+            let lo = mags.partition_point(|&x| x < mag - COMPLETENESS_HALF_WIDTH_MAG);
+            let hi = mags.partition_point(|&x| x <= mag + COMPLETENESS_HALF_WIDTH_MAG);
+            let total = hi - lo;
+            let seen = seen_before[hi] - seen_before[lo];
+            if total >= COMPLETENESS_MIN_STARS
+                && (seen as f64) < COMPLETENESS_MIN_FRACTION * total as f64
+            {
+                *m = None;
+                dropped += 1;
+            }
+        }
+        dropped
+    }
+
     /// `P(Bin(n − 3, p) ≥ m − 3)` with `p` from the local catalogue density.
     pub(super) fn match_tail(
         &self,
@@ -353,11 +434,7 @@ impl Search<'_> {
         matched: usize,
         radius: f64,
     ) -> f64 {
-        let half_diag = 0.5 * self.camera.diagonal_fov_rad();
-        let boresight = r.inverse_transform_vector(&Vector3::z());
-        let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
-        let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
-        let density = in_field.max(1) as f64 / cone_sr;
+        let density = self.field_density(r);
         // In a gated pass a chance match must also fall in the centroid's magnitude window: the
         // mean chance over the centroids bounds the tail (Hoeffding 1956, for counts above the mean).
         let frac = if self.gate.is_some() {
@@ -366,9 +443,48 @@ impl Search<'_> {
             1.0
         };
         let p = (density * PI * radius * radius * frac).min(1.0);
-        binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p)
+        match &self.hint {
+            // Tracking: two spots made the hypothesis inside the hint's region; the chance that
+            // they did so by accident is `base`, and the others must land by chance as usual.
+            Some(h) => {
+                h.base_chance(density * frac, radius)
+                    * binomial_tail(n.saturating_sub(2), matched.saturating_sub(2), p)
+            }
+            None => binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p),
+        }
+    }
+
+    /// Catalogue stars per steradian in the field the attitude `r` looks at.
+    pub(super) fn field_density(&self, r: &Rotation3<f64>) -> f64 {
+        let half_diag = 0.5 * self.camera.diagonal_fov_rad();
+        let boresight = r.inverse_transform_vector(&Vector3::z());
+        let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
+        let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
+        in_field.max(1) as f64 / cone_sr
+    }
+
+    /// Fewest matches an attitude is fitted to: 3, or 2 when a hint pins the attitude down.
+    pub(super) fn min_fit(&self) -> usize {
+        if self.hint.is_some() {
+            2
+        } else {
+            3
+        }
     }
 }
+
+/// Matches from which the noise is estimated by the median residual rather than the rms.
+pub(super) const ROBUST_SIGMA_MIN_MATCHES: usize = 6;
+
+/// Half width of the magnitude range whose completeness judges a match (see
+/// `Search::drop_unseen_magnitudes`).
+pub(super) const COMPLETENESS_HALF_WIDTH_MAG: f64 = 0.25;
+
+/// Fewest catalogue stars on the sensor in that range for the judgement.
+pub(super) const COMPLETENESS_MIN_STARS: usize = 4;
+
+/// A match is dropped when fewer than this fraction of the stars in its range are matched.
+pub(super) const COMPLETENESS_MIN_FRACTION: f64 = 0.25;
 
 /// Work of one nearest-star look-up, in catalogue pairs visited (about its cost in time): the
 /// search's work budget counts matching too, so frames of many spots end as soon.

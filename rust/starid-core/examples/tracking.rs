@@ -1,0 +1,254 @@
+//! Tracking measurements (the tracking issue's targets), bundled catalogue, single thread:
+//!
+//! 1. Hinted identification of 12°/512 px frames (mag 6, 0.2 px, magnitudes) from a hint up to
+//!    1° off with a 1° uncertainty, against lost in space on the same frames: medians, p99.
+//! 2. A deliberately wrong hint (10° off, 1° uncertainty, no fallback): identified, wrong ids.
+//! 3. Frames with only 2 or 3 real stars among false spots, hint within its 0.1° uncertainty,
+//!    and the same frames with the hint 1° off (outside it): identified, wrong ids.
+//! 4. Sequences at 10 Hz, rates 0.1–5°/s, 0.5 px noise (plus smear over 20 ms), 0–40 false spots
+//!    with catalogue-like magnitudes: frames identified, in tracking mode, wrong ids, time; and
+//!    after 10 blank frames, the frames until lock is regained.
+//!
+//! `cargo run --release --example tracking -- [FRAMES_PER_CASE] [SEQUENCE_FRAMES_PER_RATE]`
+#![allow(clippy::print_stdout)]
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::{Rotation3, Unit, Vector3};
+use rand::{Rng, SeedableRng};
+use starid_core::simulate::{simulate_sequence, SequenceConfig};
+use starid_core::tracking::{TrackMode, Tracker, TrackerConfig};
+use starid_core::{
+    simulate, AttitudeHint, Camera, Catalog, FalseStarMags, HintFallback, IdentifyConfig,
+    Identification, SimConfig, SimFrame, Solver,
+};
+
+fn pct(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[((v.len() as f64 - 1.0) * q).round() as usize]
+}
+
+/// Wrong ids of an identification against the truth.
+fn wrong(id: &Identification, f: &SimFrame) -> usize {
+    id.catalog_index
+        .iter()
+        .zip(&f.catalog_index)
+        .filter(|(a, b)| a.is_some() && a != b)
+        .count()
+}
+
+fn offset(rng: &mut impl Rng, angle: f64) -> Rotation3<f64> {
+    let axis = Unit::new_normalize(Vector3::from_fn(|_, _| rng.random::<f64>() - 0.5));
+    Rotation3::from_axis_angle(&axis, angle)
+}
+
+fn main() {
+    let args: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("N")).collect();
+    let n_frames = args.first().copied().unwrap_or(2000);
+    let seq_frames = args.get(1).copied().unwrap_or(2000);
+    let catalog = Arc::new(Catalog::bundled());
+    let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).expect("camera");
+    let solver = Solver::for_camera(catalog.clone(), &cam).expect("solver");
+    let cfg = IdentifyConfig::default();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+
+    // 1. Hinted vs lost in space.
+    let sim = SimConfig {
+        mag_limit: Some(6.0),
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
+    let frames: Vec<SimFrame> = (0..)
+        .map(|s| simulate(&catalog, &cam, &sim, s).expect("frame"))
+        .filter(|f| f.real_stars() >= 4)
+        .take(n_frames)
+        .collect();
+    let (mut t_lis, mut t_hint) = (Vec::new(), Vec::new());
+    let (mut ok_lis, mut ok_hint, mut hinted, mut wrong_hint) = (0, 0, 0, 0);
+    for f in &frames {
+        let t = Instant::now();
+        let a = solver.identify(&f.centroids, Some(&f.magnitudes), &cam, &cfg).unwrap();
+        t_lis.push(t.elapsed().as_secs_f64());
+        ok_lis += usize::from(a.is_identified());
+        let angle = 1f64.to_radians() * rng.random::<f64>();
+        let hint = AttitudeHint {
+            r_icrs_to_cam: offset(&mut rng, angle) * f.r_icrs_to_cam,
+            uncertainty_rad: 1f64.to_radians(),
+            mirrored: Some(f.mirrored),
+        };
+        let t = Instant::now();
+        let b = solver
+            .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &hint, HintFallback::LostInSpace)
+            .unwrap();
+        t_hint.push(t.elapsed().as_secs_f64());
+        ok_hint += usize::from(b.is_identified());
+        hinted += usize::from(b.hinted);
+        wrong_hint += wrong(&b, f);
+    }
+    let (ml, mh) = (pct(&mut t_lis, 0.5), pct(&mut t_hint, 0.5));
+    println!(
+        "1. 12°/512 px, {} frames, hint ≤ 1° off, uncertainty 1°: lost in space {ok_lis} identified, median {:.2} µs p99 {:.1} µs; hinted {ok_hint} identified ({hinted} by the hint), {wrong_hint} wrong ids, median {:.2} µs p99 {:.1} µs; speed-up {:.1}×",
+        frames.len(),
+        ml * 1e6,
+        pct(&mut t_lis, 0.99) * 1e6,
+        mh * 1e6,
+        pct(&mut t_hint, 0.99) * 1e6,
+        ml / mh
+    );
+
+    // 2. A wrong hint.
+    let (mut ok, mut bad) = (0, 0);
+    for f in &frames {
+        let hint = AttitudeHint {
+            r_icrs_to_cam: offset(&mut rng, 10f64.to_radians()) * f.r_icrs_to_cam,
+            uncertainty_rad: 1f64.to_radians(),
+            mirrored: Some(f.mirrored),
+        };
+        let b = solver
+            .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &hint, HintFallback::None)
+            .unwrap();
+        ok += usize::from(b.is_identified());
+        bad += wrong(&b, f);
+    }
+    println!("2. hint 10° off, uncertainty 1°, no fallback: {ok} of {} identified, {bad} wrong ids", frames.len());
+
+    // 3. Two or three real stars among false spots.
+    for real in [2usize, 3] {
+        let sim = SimConfig {
+            mag_limit: Some(6.0),
+            noise_px: 0.3,
+            mag_noise: 0.1,
+            false_stars: 10,
+            false_star_mags: FalseStarMags::FromCatalog,
+            ..Default::default()
+        };
+        let mut few: Vec<SimFrame> = Vec::new();
+        let mut seed = 1_000_000u64;
+        while few.len() < n_frames / 4 {
+            let mut f = simulate(&catalog, &cam, &sim, seed).expect("frame");
+            seed += 1;
+            // Keep `real` real stars (the brightest), drop the others.
+            let mut reals: Vec<usize> = (0..f.centroids.len()).filter(|&i| f.catalog_index[i].is_some()).collect();
+            if reals.len() < real {
+                continue;
+            }
+            reals.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+            let keep: Vec<usize> = (0..f.centroids.len())
+                .filter(|i| f.catalog_index[*i].is_none() || reals[..real].contains(i))
+                .collect();
+            f.centroids = keep.iter().map(|&i| f.centroids[i]).collect();
+            f.magnitudes = keep.iter().map(|&i| f.magnitudes[i]).collect();
+            f.catalog_index = keep.iter().map(|&i| f.catalog_index[i]).collect();
+            few.push(f);
+        }
+        let (mut ok_in, mut bad_in, mut ok_out, mut bad_out) = (0, 0, 0, 0);
+        for f in &few {
+            let good = AttitudeHint {
+                r_icrs_to_cam: offset(&mut rng, 0.05f64.to_radians()) * f.r_icrs_to_cam,
+                uncertainty_rad: 0.1f64.to_radians(),
+                mirrored: Some(f.mirrored),
+            };
+            let a = solver
+                .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &good, HintFallback::None)
+                .unwrap();
+            ok_in += usize::from(a.is_identified());
+            bad_in += wrong(&a, f);
+            let off = AttitudeHint {
+                r_icrs_to_cam: offset(&mut rng, 1f64.to_radians()) * f.r_icrs_to_cam,
+                ..good
+            };
+            let b = solver
+                .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &off, HintFallback::None)
+                .unwrap();
+            ok_out += usize::from(b.is_identified());
+            bad_out += wrong(&b, f);
+        }
+        println!(
+            "3. {real} real stars + 10 false, hint ≤ 0.05° off (uncertainty 0.1°): {ok_in}/{} identified, {bad_in} wrong ids; hint 1° off: {ok_out} identified, {bad_out} wrong ids",
+            few.len()
+        );
+    }
+
+    // 4. Sequences.
+    let mut all_frames = 0;
+    let (mut all_ok, mut all_track, mut all_wrong) = (0, 0, 0);
+    let mut times = Vec::new();
+    for (k, rate_deg) in [0.1f64, 0.5, 1.0, 2.0, 5.0].into_iter().enumerate() {
+        let seq_cfg = SequenceConfig {
+            frames: seq_frames,
+            rate_rad_s: rate_deg.to_radians(),
+            blank: 100..110,
+            frame: SimConfig {
+                mag_limit: Some(6.0),
+                noise_px: 0.5,
+                mag_noise: 0.1,
+                false_stars: 0,
+                false_stars_max: Some(40),
+                false_star_mags: FalseStarMags::FromCatalog,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let seq = simulate_sequence(&catalog, &cam, &seq_cfg, 100 + k as u64).expect("sequence");
+        let mut tracker = Tracker::new(TrackerConfig::default(), cfg.clone()).expect("tracker");
+        let (mut ok, mut track, mut bad, mut n, mut unid_real) = (0, 0, 0, 0, 0);
+        let mut regained = None;
+        for (i, f) in seq.iter().enumerate() {
+            let t = Instant::now();
+            let step = tracker
+                .update(&solver, &f.frame.centroids, Some(&f.frame.magnitudes), &cam, f.t_s)
+                .expect("update");
+            times.push(t.elapsed().as_secs_f64());
+            if seq_cfg.blank.contains(&i) {
+                bad += wrong(&step.identification, &f.frame);
+                continue;
+            }
+            n += 1;
+            let id = &step.identification;
+            ok += usize::from(id.is_identified());
+            track += usize::from(id.is_identified() && step.mode == TrackMode::Tracking);
+            bad += wrong(id, &f.frame);
+            if !id.is_identified() && f.frame.real_stars() >= 2 {
+                unid_real += 1;
+            }
+            if std::env::var("STARID_WRONG").is_ok() && wrong(id, &f.frame) > 0 {
+                for (o, (a, b)) in id.catalog_index.iter().zip(&f.frame.catalog_index).enumerate() {
+                    if a.is_some() && a != b {
+                        let star = a.unwrap() as usize;
+                        let imaged = f.frame.catalog_index.contains(&Some(star as u32));
+                        println!("  wrong: frame {i} mode {:?} spot {o} truth {:?} got {star} (mag {:.2}, imaged elsewhere {imaged}) spot mag {:.2} residual {:.1}\" matched {} of {} spots radius {:.1}\"", step.mode, b, catalog.mag()[star], f.frame.magnitudes[o], id.residuals_rad[o].to_degrees()*3600.0, id.matched, f.frame.centroids.len(), id.match_radius_rad.to_degrees()*3600.0);
+                    }
+                }
+            }
+            if std::env::var("STARID_DEBUG").is_ok() && (step.mode != TrackMode::Tracking || wrong(id, &f.frame) > 0) && i > 0 && !(seq_cfg.blank.start..=seq_cfg.blank.end).contains(&i) {
+                let mut order: Vec<usize> = (0..f.frame.centroids.len()).collect();
+                order.sort_by(|&a, &b| f.frame.magnitudes[a].total_cmp(&f.frame.magnitudes[b]));
+                let real_top = order.iter().take(10).filter(|&&o| f.frame.catalog_index[o].is_some()).count();
+                let err = step.predicted.map(|p| starid_core::geometry::rotation_angle_between(&p, &f.frame.r_icrs_to_cam).to_degrees());
+                println!("  frame {i}: mode {:?} ok {} wrong {} spots {} real {} real-in-top10 {real_top} u {:.3}° pred err {:?}°", step.mode, id.is_identified(), wrong(id, &f.frame), f.frame.centroids.len(), f.frame.real_stars(), step.uncertainty_rad.to_degrees(), err);
+            }
+            if i >= seq_cfg.blank.end && regained.is_none() && id.is_identified() {
+                regained = Some(i - seq_cfg.blank.end + 1);
+            }
+        }
+        println!(
+            "4. {rate_deg}°/s: {ok}/{n} identified ({:.2} %), {track} in tracking mode ({:.2} %), {bad} wrong ids, {unid_real} unidentified with ≥ 2 real stars; lock regained {:?} frame(s) after 10 blank ones",
+            100.0 * ok as f64 / n as f64,
+            100.0 * track as f64 / n as f64,
+            regained
+        );
+        all_frames += n;
+        all_ok += ok;
+        all_track += track;
+        all_wrong += bad;
+    }
+    println!(
+        "4. all rates: {all_ok}/{all_frames} identified ({:.3} %), tracking mode {:.3} %, {all_wrong} wrong ids; per frame median {:.2} µs p99 {:.1} µs",
+        100.0 * all_ok as f64 / all_frames as f64,
+        100.0 * all_track as f64 / all_frames as f64,
+        pct(&mut times, 0.5) * 1e6,
+        pct(&mut times, 0.99) * 1e6
+    );
+}

@@ -1,0 +1,338 @@
+//! Hinted identification, the tracking mode: the attitude is roughly known (the last frame's,
+//! propagated), so each spot's star lies within the hint's uncertainty of where the hint puts
+//! it. Two spots and their candidate stars make a hypothesis (TRIAD), which must stay within the
+//! uncertainty and then passes the shared verification. The false-match bound counts the hint's
+//! region instead of the whole sky: the chance that two spots find stars near their predicted
+//! places and at the right distance by accident, times the chance that the other matches are
+//! coincidences, times the hypotheses tried. A tight hint can so name a frame of two or three
+//! stars; a wrong hint finds nothing it can verify, and the search falls back to lost in space.
+
+use std::f64::consts::PI;
+use std::time::{Duration, Instant};
+
+use nalgebra::{Rotation3, Vector3};
+
+use super::{
+    validate_centroids, Identification, IdentifyConfig, Method, Search, Solver, Status, SCRATCH,
+};
+use crate::attitude::triad;
+use crate::error::{Error, Result};
+use crate::geometry::{angle_between, rotation_angle_between, Camera};
+
+/// Spots (brightest first) whose pairs make tracking hypotheses.
+pub const HINT_SEARCH_STARS: usize = 24;
+
+/// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
+pub const HINT_SIGMA_LADDER_PX: [f64; 7] = [0.2, 0.35, 0.5, 0.7, 1.0, 1.5, 2.5];
+
+/// Largest hint uncertainty, radians (20°): beyond it, lost in space is the better search.
+pub const MAX_HINT_UNCERTAINTY_RAD: f64 = 20.0 * PI / 180.0;
+
+/// Most candidate stars kept per spot (the nearest to its predicted place).
+const HINT_MAX_CANDIDATES: usize = 24;
+
+/// A prior attitude for [`Solver::identify_hinted`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AttitudeHint {
+    /// The expected rotation ICRS → camera.
+    pub r_icrs_to_cam: Rotation3<f64>,
+    /// How far (radians, 1 rotation angle) the true attitude may be from it: the search region.
+    pub uncertainty_rad: f64,
+    /// The frame's handedness when known (the last frame's); `None` tries both as
+    /// `allow_mirrored` says.
+    pub mirrored: Option<bool>,
+}
+
+/// What [`Solver::identify_hinted`] does when no hypothesis within the hint verifies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HintFallback {
+    /// Identify the frame lost in space (the result's `hinted` is then false).
+    LostInSpace,
+    /// Report the frame unidentified (status `NoMatch`).
+    None,
+}
+
+/// The false-match accounting of a hinted search (see the module documentation).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct HintPrior {
+    uncertainty_rad: f64,
+    pair_tol_rad: f64,
+}
+
+impl HintPrior {
+    /// The chance that two unrelated spots each find a catalogue star within the hint's reach
+    /// of their predicted place (`density` stars per steradian, match `radius`), at a distance
+    /// that agrees with theirs within the pair tolerance.
+    pub(super) fn base_chance(&self, density: f64, radius: f64) -> f64 {
+        let reach = self.uncertainty_rad + radius;
+        let p_spot = (density * PI * reach * reach).min(1.0);
+        let p_pair = (self.pair_tol_rad / self.uncertainty_rad.max(self.pair_tol_rad)).min(1.0);
+        p_spot * p_spot * p_pair
+    }
+}
+
+impl AttitudeHint {
+    fn check(&self) -> Result<()> {
+        let u = self.uncertainty_rad;
+        if !(u.is_finite() && u > 0.0 && u <= MAX_HINT_UNCERTAINTY_RAD) {
+            return Err(Error::invalid_input(format!(
+                "hint_uncertainty_deg must be in (0, {}] degrees, got {}",
+                MAX_HINT_UNCERTAINTY_RAD.to_degrees(),
+                u.to_degrees()
+            )));
+        }
+        let m = self.r_icrs_to_cam.matrix();
+        if !m.iter().all(|v| v.is_finite()) || (m.determinant() - 1.0).abs() > 1e-6 {
+            return Err(Error::invalid_input(
+                "the attitude hint must be a finite rotation",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Solver {
+    /// Identify a frame whose attitude is roughly known: tracking. See the module
+    /// documentation. Results carry `hinted: true` when the hint found them; with
+    /// [`HintFallback::LostInSpace`] a frame the hint cannot explain is identified as by
+    /// [`Solver::identify`] (`hinted: false`). Frames of two or three stars can be named when
+    /// the hint is tight enough for the bound; lost in space needs four.
+    ///
+    /// # Errors
+    /// As [`Solver::identify`]; `InvalidInput` for an uncertainty outside (0, 20°] or a
+    /// non-finite hint.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, AttitudeHint, Camera, HintFallback, IdentifyConfig, SimConfig, Solver};
+    /// use nalgebra::Rotation3;
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    /// let frame = simulate(&cat, &cam, &SimConfig { noise_px: 0.3, ..Default::default() }, 3).unwrap();
+    /// // The true attitude, 0.5° off.
+    /// let hint = AttitudeHint {
+    ///     r_icrs_to_cam: Rotation3::from_euler_angles(0.006, -0.005, 0.004) * frame.r_icrs_to_cam,
+    ///     uncertainty_rad: 1f64.to_radians(),
+    ///     mirrored: Some(false),
+    /// };
+    /// let cfg = IdentifyConfig::default();
+    /// let id = solver.identify_hinted(&frame.centroids, None, &cam, &cfg, &hint, HintFallback::None).unwrap();
+    /// assert!(id.is_identified() && id.hinted);
+    /// assert!(id.catalog_index.iter().zip(&frame.catalog_index).all(|(a, b)| a.is_none() || a == b));
+    /// ```
+    pub fn identify_hinted(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        hint: &AttitudeHint,
+        fallback: HintFallback,
+    ) -> Result<Identification> {
+        let start = Instant::now();
+        config.validate()?;
+        hint.check()?;
+        validate_centroids(centroids, magnitudes, camera)?;
+        let n = centroids.len();
+        if n >= 2 {
+            if let Some(mut id) = self.search_hinted(centroids, magnitudes, camera, config, hint) {
+                id.elapsed = start.elapsed();
+                return Ok(id);
+            }
+        }
+        match fallback {
+            HintFallback::LostInSpace => {
+                let mut id = self.identify(centroids, magnitudes, camera, config)?;
+                id.elapsed = start.elapsed();
+                Ok(id)
+            }
+            HintFallback::None => {
+                let status = if n < 2 {
+                    Status::TooFewStars
+                } else {
+                    Status::NoMatch
+                };
+                let mut id = Identification::unidentified(status, n, 0, start.elapsed());
+                id.method = config.method;
+                id.hinted = true;
+                Ok(id)
+            }
+        }
+    }
+
+    fn search_hinted(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        hint: &AttitudeHint,
+    ) -> Option<Identification> {
+        let n = centroids.len();
+        let obs: Vec<Vector3<f64>> = centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], false))
+            .collect();
+        let obs_mirrored: Vec<Vector3<f64>> = centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], true))
+            .collect();
+        let mut order: Vec<usize> = (0..n).collect();
+        if let Some(m) = magnitudes {
+            order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
+        }
+        let handedness: &[bool] = match hint.mirrored {
+            Some(false) => &[false],
+            Some(true) => &[true],
+            None if config.allow_mirrored => &[false, true],
+            None => &[false],
+        };
+        // A finer noise ladder than lost in space's: each step is cheap here, and the match
+        // radius follows the step, so a step near the true noise keeps coincidences out.
+        let ladder: &[f64] = match &config.centroid_sigma_px {
+            Some(s) => std::slice::from_ref(s),
+            None => &HINT_SIGMA_LADDER_PX,
+        };
+        // With calibrated magnitudes a centroid matches only stars its brightness allows (as
+        // lost in space's gated passes do), and the bound counts only those.
+        let windows: Option<Vec<[f32; 2]>> = self.magnitudes_fit(magnitudes, config).then(|| {
+            let (m, off, tol) = (
+                magnitudes.unwrap_or_default(),
+                config.mag_offset.unwrap_or(0.0),
+                config.mag_tolerance,
+            );
+            m.iter()
+                .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32])
+                .collect()
+        });
+        // Tracking names frames of two or three stars when the bound allows.
+        let cfg = IdentifyConfig {
+            min_matches: 2,
+            ..config.clone()
+        };
+        let mut search = Search {
+            solver: self,
+            pairs: &self.pairs,
+            camera,
+            config: &cfg,
+            obs: [&obs, &obs_mirrored],
+            magnitudes,
+            gate: None,
+            gen_gate: None,
+            gate_fraction: 1.0,
+            pass_pairs_limit: usize::MAX,
+            tri_pos: [0; 3],
+            gated_work: 0,
+            order: &order,
+            hypotheses: 0,
+            pairs_visited: 0,
+            deadline: None,
+            scratch: SCRATCH.with(|c| c.take()),
+            stride: 0,
+            method: Method::Auto,
+            hint: None,
+        };
+        if let Some(w) = windows.as_deref() {
+            search.gate = Some(w);
+            search.gate_fraction = self.window_fraction(w);
+        }
+        let mags32 = self.mag_f32();
+        let f = camera.focal_length_px;
+        let k = n.min(HINT_SEARCH_STARS);
+        let top: Vec<usize> = order[..k].to_vec();
+        let catalog = &*self.catalog;
+        let cat = catalog.vectors();
+        let mut found = None;
+        'passes: for &sigma_px in ladder {
+            let sigma_rad = sigma_px / f;
+            let tol = 3.0 * std::f64::consts::SQRT_2 * sigma_rad + 1e-6;
+            search.hint = Some(HintPrior {
+                uncertainty_rad: hint.uncertainty_rad,
+                pair_tol_rad: tol,
+            });
+            let reach = hint.uncertainty_rad + 3.0 * sigma_rad;
+            let r_confirm = 8.0 * sigma_rad + 2e-7;
+            for &mirrored in handedness {
+                let o = search.obs[usize::from(mirrored)];
+                // Each spot's candidates (the catalogue stars within reach of its predicted place,
+                // nearest first), looked up when a pair first needs them.
+                let mut candidates: Vec<Option<Vec<u32>>> = vec![None; k];
+                let lookup = |s: usize| -> Vec<u32> {
+                    let w = hint.r_icrs_to_cam.inverse_transform_vector(&o[s]);
+                    let mut c: Vec<(f64, u32)> = Vec::new();
+                    let allowed = |star: u32| {
+                        windows
+                            .as_deref()
+                            .is_none_or(|g| mags32[star as usize] <= g[s][1])
+                    };
+                    catalog.for_each_in_cone(&w, reach, |star, cos| {
+                        if allowed(star) {
+                            c.push((-cos, star));
+                        }
+                    });
+                    c.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                    c.truncate(HINT_MAX_CANDIDATES);
+                    c.into_iter().map(|(_, s)| s).collect()
+                };
+                search.pairs_visited += k;
+                // Pairs of spots, brightest first: by the sum of their brightness ranks.
+                let pairs = (1..2 * k.max(1) - 2)
+                    .flat_map(|sum| (0..=sum / 2).map(move |i| (i, sum - i)))
+                    .filter(|&(i, j)| i < j && j < k);
+                for (i, j) in pairs {
+                    let (a_obs, b_obs) = (o[top[i]], o[top[j]]);
+                    let theta = angle_between(&a_obs, &b_obs);
+                    if theta < 10.0 * tol {
+                        continue;
+                    }
+                    // |angle(a, b) − θ| ≤ tol, as cosines.
+                    let (cos_lo, cos_hi) = ((theta + tol).min(PI).cos(), (theta - tol).max(0.0).cos());
+                    for idx in [i, j] {
+                        if candidates[idx].is_none() {
+                            candidates[idx] = Some(lookup(top[idx]));
+                        }
+                    }
+                    let (ci, cj) = (
+                        candidates[i].as_deref().unwrap_or_default(),
+                        candidates[j].as_deref().unwrap_or_default(),
+                    );
+                    for &a in ci {
+                        for &b in cj {
+                            if a == b {
+                                continue;
+                            }
+                            let (va, vb) = (cat[a as usize], cat[b as usize]);
+                            let c = va.dot(&vb);
+                            if c < cos_lo || c > cos_hi {
+                                continue;
+                            }
+                            let Some(r) = triad(&a_obs, &b_obs, &va, &vb) else {
+                                continue;
+                            };
+                            if rotation_angle_between(&r, &hint.r_icrs_to_cam) > reach + tol {
+                                continue;
+                            }
+                            search.hypotheses += 1;
+                            let v = search.verify(r, mirrored, r_confirm, sigma_rad);
+                            if let Some(v) = search.accept(v) {
+                                // The verified attitude must still be one the hint allows.
+                                if rotation_angle_between(&v.r, &hint.r_icrs_to_cam) <= reach + tol
+                                {
+                                    found = Some(v);
+                                    break 'passes;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let hypotheses = search.hypotheses;
+        SCRATCH.with(|c| c.replace(search.scratch));
+        let mut id = found?.into_identification(hypotheses, Duration::ZERO);
+        id.method = config.method;
+        id.hinted = true;
+        Some(id)
+    }
+}

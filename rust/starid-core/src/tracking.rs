@@ -1,0 +1,262 @@
+//! Tracking a sequence of frames: each frame is identified from the attitude the last ones
+//! predict (hinted identification), falling back to lost in space when the hint fails.
+//!
+//! The tracker keeps the last attitude and time and, from the last two solutions, the body
+//! rate (a rotation vector in the camera frame, radians per second). A frame at time `t` is
+//! searched around the attitude propagated at that rate, within an uncertainty that grows with
+//! the time since the last solution and with how much the rate has been changing. Frames the
+//! hint cannot explain are identified lost in space (which also catches a wrong prediction:
+//! no wrong hint can verify a wrong identification); frames nothing identifies leave the
+//! prediction coasting at the last rate.
+
+use nalgebra::{Rotation3, Vector3};
+
+use crate::error::{Error, Result};
+use crate::geometry::Camera;
+use crate::identify::{AttitudeHint, HintFallback, Identification, IdentifyConfig, Solver};
+
+/// Longest span of the solutions the rate is measured across, seconds.
+pub const RATE_BASELINE_S: f64 = 1.0;
+
+/// Most solutions kept for the rate.
+const RATE_HISTORY: usize = 16;
+
+/// How a frame was identified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackMode {
+    /// From the predicted attitude (hinted search).
+    Tracking,
+    /// Lost in space (no lock, or the hint failed).
+    LostInSpace,
+}
+
+impl TrackMode {
+    /// `"tracking"` or `"lost_in_space"`.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::tracking::TrackMode::Tracking.as_str(), "tracking");
+    /// ```
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Tracking => "tracking",
+            Self::LostInSpace => "lost_in_space",
+        }
+    }
+}
+
+/// Settings of a [`Tracker`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackerConfig {
+    /// The fastest the camera may turn, radians per second: bounds the uncertainty of a
+    /// prediction without a rate estimate.
+    pub max_rate_rad_s: f64,
+    /// Smallest search uncertainty, radians (the attitude's own error and jitter).
+    pub min_uncertainty_rad: f64,
+    /// Identify lost in space when the hint fails (otherwise such frames are unidentified).
+    pub fallback: bool,
+}
+
+impl Default for TrackerConfig {
+    fn default() -> Self {
+        Self {
+            max_rate_rad_s: 5f64.to_radians(),
+            min_uncertainty_rad: 0.05f64.to_radians(),
+            fallback: true,
+        }
+    }
+}
+
+/// One frame's outcome.
+#[derive(Debug, Clone)]
+pub struct TrackStep {
+    /// The identification.
+    pub identification: Identification,
+    /// How it was found (meaningful when identified).
+    pub mode: TrackMode,
+    /// The predicted attitude the frame was searched around (`None` without lock).
+    pub predicted: Option<Rotation3<f64>>,
+    /// The hint's uncertainty, radians (NaN without lock).
+    pub uncertainty_rad: f64,
+    /// The body rate after this frame (camera frame, rad/s), when estimated.
+    pub rate_rad_s: Option<Vector3<f64>>,
+}
+
+/// A star tracker's identification of a sequence. Not `Sync`: one per sequence.
+#[derive(Debug, Clone)]
+pub struct Tracker {
+    config: TrackerConfig,
+    identify: IdentifyConfig,
+    /// Last solution: time, attitude, handedness.
+    last: Option<(f64, Rotation3<f64>, bool)>,
+    /// Recent solutions (time, attitude), oldest first: the rate is measured across them, not
+    /// between neighbours, whose attitude errors (roll above all) a short baseline amplifies.
+    history: std::collections::VecDeque<(f64, Rotation3<f64>)>,
+    /// Body rate from the last two solutions, and the change between the last two estimates.
+    rate: Option<Vector3<f64>>,
+    rate_change: f64,
+}
+
+impl Tracker {
+    /// A tracker with no lock yet.
+    ///
+    /// # Errors
+    /// `InvalidInput` for a non-positive or non-finite rate bound or uncertainty, or invalid
+    /// identification settings.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::tracking::{Tracker, TrackerConfig};
+    /// let t = Tracker::new(TrackerConfig::default(), starid_core::IdentifyConfig::default()).unwrap();
+    /// assert!(!t.has_lock());
+    /// ```
+    pub fn new(config: TrackerConfig, identify: IdentifyConfig) -> Result<Self> {
+        let ok = |v: f64| v.is_finite() && v > 0.0;
+        if !ok(config.max_rate_rad_s) || config.max_rate_rad_s > 10.0 * std::f64::consts::PI {
+            return Err(Error::invalid_input(format!(
+                "max_rate_deg_s must be positive and at most 1800 deg/s, got {}",
+                config.max_rate_rad_s.to_degrees()
+            )));
+        }
+        if !ok(config.min_uncertainty_rad) || config.min_uncertainty_rad > 0.1 {
+            return Err(Error::invalid_input(format!(
+                "min_uncertainty_deg must be in (0, 5.7] degrees, got {}",
+                config.min_uncertainty_rad.to_degrees()
+            )));
+        }
+        identify.validate()?;
+        Ok(Self {
+            config,
+            identify,
+            last: None,
+            history: std::collections::VecDeque::new(),
+            rate: None,
+            rate_change: 0.0,
+        })
+    }
+
+    /// Whether a solution is held to predict from.
+    pub fn has_lock(&self) -> bool {
+        self.last.is_some()
+    }
+
+    /// The body rate estimate (camera frame, rad/s).
+    pub fn rate_rad_s(&self) -> Option<Vector3<f64>> {
+        self.rate
+    }
+
+    /// Forget the lock: the next frame is identified lost in space.
+    pub fn reset(&mut self) {
+        self.last = None;
+        self.history.clear();
+        self.rate = None;
+        self.rate_change = 0.0;
+    }
+
+    /// The attitude predicted for time `t_s` and its uncertainty (radians), without a lock `None`.
+    pub fn predict(&self, t_s: f64) -> Option<(Rotation3<f64>, f64)> {
+        let (t0, r0, _) = self.last?;
+        let dt = (t_s - t0).abs();
+        let c = &self.config;
+        Some(match self.rate {
+            Some(w) => {
+                let turn = Rotation3::new(w * (t_s - t0));
+                // The rate's own change since the last estimate, over this interval, and some
+                // room for jitter and for the rate's error.
+                let u = c.min_uncertainty_rad + 2.0 * self.rate_change * dt + 0.1 * w.norm() * dt;
+                (turn * r0, u.min(c.max_rate_rad_s * dt + c.min_uncertainty_rad))
+            }
+            None => (r0, c.max_rate_rad_s * dt + c.min_uncertainty_rad),
+        })
+    }
+
+    /// Identify the frame taken at `t_s` (seconds, any origin; increasing or not) and update the
+    /// lock.
+    ///
+    /// # Errors
+    /// As [`Solver::identify_hinted`]; `InvalidInput` for a non-finite time.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::simulate::{random_catalog, simulate_sequence, SequenceConfig};
+    /// use starid_core::tracking::{TrackMode, Tracker, TrackerConfig};
+    /// use starid_core::{Camera, IdentifyConfig, Solver};
+    /// let cat = std::sync::Arc::new(random_catalog(8000, 1.0, 6.5, 1).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    /// let seq = simulate_sequence(&cat, &cam, &SequenceConfig { frames: 6, ..Default::default() }, 2).unwrap();
+    /// let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    /// let modes: Vec<TrackMode> = seq.iter()
+    ///     .map(|f| tracker.update(&solver, &f.frame.centroids, None, &cam, f.t_s).unwrap().mode)
+    ///     .collect();
+    /// assert_eq!(modes[0], TrackMode::LostInSpace);
+    /// assert!(modes[1..].iter().all(|m| *m == TrackMode::Tracking));
+    /// ```
+    pub fn update(
+        &mut self,
+        solver: &Solver,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        t_s: f64,
+    ) -> Result<TrackStep> {
+        if !t_s.is_finite() {
+            return Err(Error::invalid_input(format!("the frame time must be finite, got {t_s}")));
+        }
+        let prediction = self.predict(t_s);
+        let fallback = if self.config.fallback {
+            HintFallback::LostInSpace
+        } else {
+            HintFallback::None
+        };
+        let id = match (prediction, self.last) {
+            (Some((r, u)), Some((_, _, mirrored))) => {
+                let hint = AttitudeHint {
+                    r_icrs_to_cam: r,
+                    uncertainty_rad: u.min(crate::identify::MAX_HINT_UNCERTAINTY_RAD),
+                    mirrored: Some(mirrored),
+                };
+                solver.identify_hinted(centroids, magnitudes, camera, &self.identify, &hint, fallback)?
+            }
+            _ => solver.identify(centroids, magnitudes, camera, &self.identify)?,
+        };
+        let mode = if id.hinted {
+            TrackMode::Tracking
+        } else {
+            TrackMode::LostInSpace
+        };
+        if let (true, Some(r)) = (id.is_identified(), id.r_icrs_to_cam) {
+            // A lock on the other handedness, or after a long gap, starts a new history.
+            let gap = self.last.is_some_and(|(t0, _, m)| m != id.mirrored || (t_s - t0).abs() > RATE_BASELINE_S);
+            if gap {
+                self.history.clear();
+                self.rate = None;
+            }
+            self.history.push_back((t_s, r));
+            while self.history.len() > 2
+                && (t_s - self.history[0].0).abs() > RATE_BASELINE_S
+            {
+                self.history.pop_front();
+            }
+            if self.history.len() > RATE_HISTORY {
+                self.history.pop_front();
+            }
+            if let Some(&(t0, r0)) = self.history.front() {
+                let dt = t_s - t0;
+                if dt.abs() > 1e-9 {
+                    let w = (r * r0.inverse()).scaled_axis() / dt;
+                    self.rate_change = self.rate.map_or(0.0, |old| (w - old).norm());
+                    self.rate = Some(w);
+                }
+            }
+            self.last = Some((t_s, r, id.mirrored));
+        }
+        Ok(TrackStep {
+            mode,
+            predicted: prediction.map(|p| p.0),
+            uncertainty_rad: prediction.map_or(f64::NAN, |p| p.1),
+            rate_rad_s: self.rate,
+            identification: id,
+        })
+    }
+}
