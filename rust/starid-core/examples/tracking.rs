@@ -111,6 +111,9 @@ fn main() {
             .unwrap();
         ok += usize::from(b.is_identified());
         bad += wrong(&b, f);
+        if b.is_identified() && std::env::var("STARID_DEBUG").is_ok() {
+            println!("  wrong-hint solution: matched {} of {} spots, bound {:.2e}, radius {:.1}\", sigma {:.2} px, hypotheses {}, wrong {}", b.matched, f.centroids.len(), b.false_match_probability, b.match_radius_rad.to_degrees() * 3600.0, b.centroid_sigma_px, b.hypotheses, wrong(&b, f));
+        }
     }
     println!("2. hint 10° off, uncertainty 1°, no fallback: {ok} of {} identified, {bad} wrong ids", frames.len());
 

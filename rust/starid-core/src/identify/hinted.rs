@@ -57,17 +57,22 @@ pub enum HintFallback {
 pub(super) struct HintPrior {
     uncertainty_rad: f64,
     pair_tol_rad: f64,
+    /// Catalogue stars per steradian in the hinted field (the attitude moves within the
+    /// uncertainty only: counted once per call).
+    pub(super) density: f64,
 }
 
 impl HintPrior {
-    /// The chance that two unrelated spots each find a catalogue star within the hint's reach
-    /// of their predicted place (`density` stars per steradian, match `radius`), at a distance
-    /// that agrees with theirs within the pair tolerance.
+    /// The chance that a pair of unrelated spots finds a pair of catalogue stars, each within
+    /// the hint's reach of its spot's predicted place (`density` stars per steradian, match
+    /// `radius`), at a distance that agrees with theirs within the pair tolerance: the expected
+    /// number of such star pairs (candidates per spot, squared, times the chance that a
+    /// distance agrees), at most 1. The search multiplies it by the spot pairs it examined.
     pub(super) fn base_chance(&self, density: f64, radius: f64) -> f64 {
         let reach = self.uncertainty_rad + radius;
-        let p_spot = (density * PI * reach * reach).min(1.0);
+        let per_spot = density * PI * reach * reach;
         let p_pair = (self.pair_tol_rad / self.uncertainty_rad.max(self.pair_tol_rad)).min(1.0);
-        p_spot * p_spot * p_pair
+        (per_spot * per_spot * p_pair).min(1.0)
     }
 }
 
@@ -244,12 +249,15 @@ impl Solver {
         let catalog = &*self.catalog;
         let cat = catalog.vectors();
         let mut found = None;
-        'passes: for &sigma_px in ladder {
+        let density = search.field_density(&hint.r_icrs_to_cam);
+        let mut found_step = 0;
+        'passes: for (step, &sigma_px) in ladder.iter().enumerate() {
             let sigma_rad = sigma_px / f;
             let tol = 3.0 * std::f64::consts::SQRT_2 * sigma_rad + 1e-6;
             search.hint = Some(HintPrior {
                 uncertainty_rad: hint.uncertainty_rad,
                 pair_tol_rad: tol,
+                density,
             });
             let reach = hint.uncertainty_rad + 3.0 * sigma_rad;
             let r_confirm = 8.0 * sigma_rad + 2e-7;
@@ -297,6 +305,12 @@ impl Solver {
                         candidates[i].as_deref().unwrap_or_default(),
                         candidates[j].as_deref().unwrap_or_default(),
                     );
+                    if ci.is_empty() || cj.is_empty() {
+                        continue;
+                    }
+                    // A spot pair is one trial: the bound's chance of a coincidence is per pair
+                    // of spots (all their candidate pairs together), times the pairs examined.
+                    search.hypotheses += 1;
                     for &a in ci {
                         for &b in cj {
                             if a == b {
@@ -313,13 +327,13 @@ impl Solver {
                             if rotation_angle_between(&r, &hint.r_icrs_to_cam) > reach + tol {
                                 continue;
                             }
-                            search.hypotheses += 1;
                             let v = search.verify(r, mirrored, r_confirm, sigma_rad);
                             if let Some(v) = search.accept(v) {
                                 // The verified attitude must still be one the hint allows.
                                 if rotation_angle_between(&v.r, &hint.r_icrs_to_cam) <= reach + tol
                                 {
                                     found = Some(v);
+                                    found_step = step;
                                     break 'passes;
                                 }
                             }
@@ -328,9 +342,32 @@ impl Solver {
                 }
             }
         }
+        // A tight step can verify with the stars its radius reaches while noisier ones (a smeared
+        // frame) stay out: while spots are left, the looser steps re-verify from the solution,
+        // and the one that names more stars (within the bound) wins.
+        let mut found = found?;
+        let mut step_sigma = ladder[found_step];
+        for &sigma_px in ladder.iter().skip(found_step + 1) {
+            // Only when spots are left and the residuals say the noise reaches the step's.
+            if found.matched >= n || found.sigma_px < 0.75 * step_sigma {
+                break;
+            }
+            step_sigma = sigma_px;
+            let sigma_rad = sigma_px / f;
+            search.hint = Some(HintPrior {
+                uncertainty_rad: hint.uncertainty_rad,
+                pair_tol_rad: 3.0 * std::f64::consts::SQRT_2 * sigma_rad + 1e-6,
+                density,
+            });
+            let v = search.verify(found.r, found.mirrored, 8.0 * sigma_rad + 2e-7, sigma_rad);
+            match search.accept(v) {
+                Some(v) if v.matched > found.matched => found = v,
+                _ => break,
+            }
+        }
         let hypotheses = search.hypotheses;
         SCRATCH.with(|c| c.replace(search.scratch));
-        let mut id = found?.into_identification(hypotheses, Duration::ZERO);
+        let mut id = found.into_identification(hypotheses, Duration::ZERO);
         id.method = config.method;
         id.hinted = true;
         Some(id)

@@ -128,7 +128,10 @@ impl Search<'_> {
         }
         // Tracking names frames of few stars among many spots: there a false spot on a
         // catalogue star too faint to be imaged must not count (see `drop_unseen_magnitudes`).
-        let unseen = if self.hint.is_some() {
+        // Only where unmatched spots abound: they are what such coincidences are made of, and
+        // in a clean frame the check would only cost real stars near a soft detection limit.
+        let unmatched = n - self.scratch.matches.iter().filter(|m| m.is_some()).count();
+        let unseen = if self.hint.is_some() && unmatched >= UNSEEN_CHECK_MIN_UNMATCHED {
             self.drop_unseen_magnitudes(&r, mirrored)
         } else {
             0
@@ -456,6 +459,9 @@ impl Search<'_> {
 
     /// Catalogue stars per steradian in the field the attitude `r` looks at.
     pub(super) fn field_density(&self, r: &Rotation3<f64>) -> f64 {
+        if let Some(h) = self.hint.as_ref().filter(|h| h.density > 0.0) {
+            return h.density;
+        }
         let half_diag = 0.5 * self.camera.diagonal_fov_rad();
         let boresight = r.inverse_transform_vector(&Vector3::z());
         let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
@@ -472,6 +478,10 @@ impl Search<'_> {
         }
     }
 }
+
+/// Unmatched spots from which tracking checks matches against the frame's magnitude
+/// completeness.
+pub(super) const UNSEEN_CHECK_MIN_UNMATCHED: usize = 3;
 
 /// Matches from which the noise is estimated by the median residual rather than the rms.
 pub(super) const ROBUST_SIGMA_MIN_MATCHES: usize = 6;
