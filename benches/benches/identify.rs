@@ -129,6 +129,40 @@ fn identify(c: &mut Criterion) {
             })
         });
         if name == "12deg_512px_0.2px" {
+            // Tracking: the same frames from a hint up to 1° off, 1° uncertainty.
+            let hints: Vec<starid_core::AttitudeHint> = fs
+                .iter()
+                .enumerate()
+                .map(|(k, f)| {
+                    let a = 0.0174 * ((k * 7919) % 1000) as f64 / 1000.0;
+                    let axis = nalgebra::Vector3::new(1.0, (k % 5) as f64 - 2.0, 0.5).normalize();
+                    starid_core::AttitudeHint {
+                        r_icrs_to_cam: nalgebra::Rotation3::new(axis * a) * f.r_icrs_to_cam,
+                        uncertainty_rad: 1f64.to_radians(),
+                        mirrored: Some(f.mirrored),
+                    }
+                })
+                .collect();
+            g.bench_function(format!("{name}_hinted_1deg"), |b| {
+                b.iter(|| {
+                    refs.iter()
+                        .zip(&hints)
+                        .filter(|((xy, m), h)| {
+                            solver
+                                .identify_hinted(
+                                    black_box(xy),
+                                    *m,
+                                    &camera,
+                                    cfg,
+                                    h,
+                                    starid_core::HintFallback::None,
+                                )
+                                .unwrap()
+                                .is_identified()
+                        })
+                        .count()
+                })
+            });
             g.bench_function(format!("{name}_batch"), |b| {
                 b.iter(|| {
                     solver

@@ -352,23 +352,29 @@ def _positive(name: str, value: Any) -> float:
 def _hint(hint: Any) -> tuple[list[float], Optional[bool]]:
     """``[w, x, y, z]`` and the handedness (None: unknown) of an attitude hint."""
     if isinstance(hint, Identification):
-        if not hint.ok or hint.quaternion is None:
+        q = hint.quaternion
+        if not hint.ok or q is None:
             raise InvalidInputError("attitude_hint is an identification without a solution")
-        return [float(v) for v in hint.quaternion], bool(hint.mirrored)
+        return q.tolist(), bool(hint.mirrored)
+    # The common forms without numpy's per-call costs: a float array or a short list.
     try:
-        v = np.asarray(hint, dtype=np.float64).ravel()
+        if isinstance(hint, np.ndarray) and hint.ndim == 1:
+            vals = [float(x) for x in hint.tolist()]
+        else:
+            vals = [float(x) for x in np.asarray(hint, dtype=np.float64).ravel().tolist()]
     except (TypeError, ValueError) as e:
         raise InvalidInputError(f"attitude_hint must be a quaternion [w, x, y, z] or (ra_deg, dec_deg, roll_deg): {e}") from e
-    if not np.all(np.isfinite(v)):
+    if not all(math.isfinite(x) for x in vals):
         raise InvalidInputError(f"attitude_hint must be finite, got {hint!r}")
-    if v.size == 4:
-        return [float(x) for x in v], None
-    if v.size == 3:
+    v = vals
+    if len(v) == 4:
+        return v, None
+    if len(v) == 3:
         ra, dec, roll = (math.radians(float(x)) for x in v)
         if abs(dec) > math.pi / 2:
             raise InvalidInputError(f"attitude_hint declination must be in [-90, 90] degrees, got {v[1]}")
         return _radec_roll_quaternion(ra, dec, roll), None
-    raise InvalidInputError(f"attitude_hint must be a quaternion [w, x, y, z] or (ra_deg, dec_deg, roll_deg), got {v.size} values")
+    raise InvalidInputError(f"attitude_hint must be a quaternion [w, x, y, z] or (ra_deg, dec_deg, roll_deg), got {len(v)} values")
 
 
 def _radec_roll_quaternion(ra: float, dec: float, roll: float) -> list[float]:

@@ -179,10 +179,15 @@ impl Solver {
             .iter()
             .map(|c| camera.pixel_to_cam(c[0], c[1], false))
             .collect();
-        let obs_mirrored: Vec<Vector3<f64>> = centroids
-            .iter()
-            .map(|c| camera.pixel_to_cam(c[0], c[1], true))
-            .collect();
+        // The mirrored directions only when that handedness is searched.
+        let obs_mirrored: Vec<Vector3<f64>> = if hint.mirrored == Some(false) {
+            Vec::new()
+        } else {
+            centroids
+                .iter()
+                .map(|c| camera.pixel_to_cam(c[0], c[1], true))
+                .collect()
+        };
         let mut order: Vec<usize> = (0..n).collect();
         if let Some(m) = magnitudes {
             order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
@@ -279,8 +284,11 @@ impl Solver {
                             c.push((-cos, star));
                         }
                     });
+                    if c.len() > HINT_MAX_CANDIDATES {
+                        c.select_nth_unstable_by(HINT_MAX_CANDIDATES, |a, b| a.0.total_cmp(&b.0));
+                        c.truncate(HINT_MAX_CANDIDATES);
+                    }
                     c.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-                    c.truncate(HINT_MAX_CANDIDATES);
                     c.into_iter().map(|(_, s)| s).collect()
                 };
                 search.pairs_visited += k;
