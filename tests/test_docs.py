@@ -7,7 +7,7 @@ import importlib
 
 import pytest
 
-MODULES = ["starid", "starid._catalog", "starid._identify", "starid.guide", "starid.pointing", "starid.starlist"]
+MODULES = ["starid", "starid._catalog", "starid._identify", "starid.guide", "starid.pointing", "starid.starlist", "starid.tracking"]
 
 
 @pytest.mark.parametrize("name", MODULES)
