@@ -1,0 +1,112 @@
+"""starid.dask on a real engine: a LocalCluster of 2 worker processes."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import starid
+
+distributed = pytest.importorskip("distributed")
+import dask.bag as db  # noqa: E402
+import dask.dataframe as dd  # noqa: E402
+
+import starid.dask as sd  # noqa: E402
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning", "ignore::ResourceWarning", "ignore::UserWarning")
+
+CAM = dict(fov_deg=12.0, image_size=(512, 512))
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[distributed.Client]:
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    with distributed.Client(cluster) as c:
+        yield c
+    cluster.close()
+
+
+@pytest.fixture(scope="module")
+def frames(bundled: starid.Catalog) -> list[starid.Frame]:
+    return [starid.simulate(bundled, seed=s, noise_px=0.3, false_stars=s % 3, **CAM) for s in range(60)]
+
+
+def _expected(frames: list[starid.Frame], bundled: starid.Catalog) -> list[starid.Identification]:
+    return starid.identify_many([f.xy for f in frames], bundled, magnitudes=[f.magnitudes for f in frames], brightness_order=False, **CAM)
+
+
+def test_bag_results_equal_identify_many(client: distributed.Client, frames: list[starid.Frame], bundled: starid.Catalog) -> None:
+    bag = db.from_sequence([(k, f.xy, f.magnitudes) for k, f in enumerate(frames)], npartitions=6)
+    got = sd.identify_frames(bag, bundled, brightness_order=False, **CAM).compute().set_index("frame").sort_index()
+    spots = sd.identify_frames(bag, bundled, brightness_order=False, spots=True, **CAM).compute()
+    want = _expected(frames, bundled)
+    assert list(got.index) == list(range(len(frames)))
+    for k, w in enumerate(want):
+        row = got.loc[k]
+        assert row.status == w.status and bool(row.ok) == w.ok and row.n_matched == w.n_matched
+        if w.ok:
+            assert np.array_equal([row.q_w, row.q_x, row.q_y, row.q_z], w.quaternion)
+        ids = spots[spots.frame == k].sort_values("spot").catalog_id.to_numpy()
+        assert np.array_equal(ids, w.ids)
+
+
+def test_spot_table_and_parquet(client: distributed.Client, frames: list[starid.Frame], bundled: starid.Catalog, tmp_path: Path) -> None:
+    rows = [(k, x, y, m) for k, f in enumerate(frames) for (x, y), m in zip(f.xy, f.magnitudes)]
+    table = dd.from_pandas(pd.DataFrame(rows, columns=["frame", "x", "y", "mag"]), npartitions=5)
+    got = sd.identify_frames(table, bundled, mag_column="mag", brightness_order=False, **CAM)
+    out = tmp_path / "results"
+    got.to_parquet(out)
+    back = pd.read_parquet(out).set_index("frame").sort_index()
+    want = _expected(frames, bundled)
+    assert len(back) == len(frames)
+    assert [back.loc[k].n_matched for k in range(len(frames))] == [w.n_matched for w in want]
+    # A Parquet dataset of spots is an input too.
+    spots_path = tmp_path / "spots"
+    table.to_parquet(spots_path)
+    again = sd.identify_frames(str(spots_path), bundled, mag_column="mag", brightness_order=False, **CAM).compute()
+    assert sorted(again.frame) == list(range(len(frames)))
+
+
+def test_a_malformed_frame_does_not_stop_the_job(client: distributed.Client, bundled: starid.Catalog) -> None:
+    good = starid.simulate(bundled, seed=1, **CAM).xy
+    bag = db.from_sequence([(0, good), (1, np.array([[np.nan, 1.0]])), (2, good)], npartitions=2)
+    got = sd.identify_frames(bag, bundled, brightness_order=False, **CAM).compute().set_index("frame").sort_index()
+    assert got.status.tolist() == ["identified", "invalid_input", "identified"]
+    assert "frame" in got.loc[1].message
+
+
+def test_every_frame_once_when_a_worker_dies(client: distributed.Client, bundled: starid.Catalog) -> None:
+    pool = [starid.simulate(bundled, seed=s, **CAM).xy for s in range(50)]
+    bag = db.from_sequence([(k, pool[k % 50]) for k in range(4000)], npartitions=40)
+
+    def slow(rec: tuple[int, np.ndarray]) -> tuple[int, np.ndarray]:
+        time.sleep(0.002)
+        return rec
+
+    df = sd.identify_frames(bag.map(slow), bundled, brightness_order=False, **CAM)
+    future = client.compute(df)
+
+    def kill() -> None:
+        time.sleep(1.5)
+        worker = sorted(client.scheduler_info()["workers"])[0]
+        client.run(os._exit, 1, workers=[worker])
+
+    threading.Thread(target=kill, daemon=True).start()
+    got = future.result(timeout=300)
+    assert sorted(got.frame) == list(range(4000))
+    assert got.ok.all()
+
+
+def test_catalogue_travels_as_arrays(bundled: starid.Catalog) -> None:
+    import pickle
+
+    assert len(pickle.dumps(bundled)) < 45 * len(bundled) + 2000
+    with pytest.raises(starid.InvalidInputError, match="Dask bag"):
+        sd.identify_frames([(0, np.zeros((0, 2)))], bundled, **CAM)  # type: ignore[arg-type]
