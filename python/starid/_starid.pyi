@@ -33,6 +33,7 @@ __all__ = [
     "identify_unknown_fov",
     "methods",
     "quaternion_from_radec_roll",
+    "result_columns",
     "monte_carlo_distances",
     "predicted_distance_covariance",
     "simulate",
@@ -378,3 +379,4 @@ class Tracker:
     def reset(self) -> None: ...
     @property
     def has_lock(self) -> bool: ...
+def result_columns(results: list[Identification], spots: bool = False) -> dict[str, Any]: ...

@@ -25,6 +25,7 @@ from typing import Any, Optional, Union
 import numpy as np
 import pandas as pd
 
+from . import _starid
 from ._catalog import Catalog, resolve_catalog
 from ._errors import InvalidInputError
 from ._identify import CatalogLike, identify_many
@@ -90,37 +91,32 @@ def _identify_records(
     mags = [r[2] if len(r) > 2 else None for r in records]
     have_mags = any(m is not None for m in mags)
     results = identify_many(xys, cat, magnitudes=mags if have_mags else None, **kwargs) if records else []
+    cols = _starid.result_columns(results, spots)
+    key_arr = pd.Series(keys, dtype=frame_dtype)
     if spots:
-        rows_s: dict[str, list[Any]] = {k: [] for k in SPOT_COLUMNS}
-        for key_, r in zip(keys, results):
-            ids, res = r.ids, r.residuals_arcsec
-            rows_s["frame"].extend([key_] * len(ids))
-            rows_s["spot"].extend(range(len(ids)))
-            rows_s["catalog_id"].extend(ids.tolist())
-            rows_s["residual_arcsec"].extend(res.tolist())
-        return pd.DataFrame(rows_s).astype(dict(SPOT_COLUMNS, frame=frame_dtype))
-    rows: dict[str, list[Any]] = {k: [] for k in FRAME_COLUMNS}
-    nan = float("nan")
-    for key_, r in zip(keys, results):
-        q = r.quaternion if r.ok else None
-        rows["frame"].append(key_)
-        rows["status"].append(r.status)
-        rows["ok"].append(bool(r.ok))
-        rows["method"].append(r.method)
-        rows["ra_deg"].append(r.ra_deg)
-        rows["dec_deg"].append(r.dec_deg)
-        rows["roll_deg"].append(r.roll_deg)
-        for k, c in enumerate("wxyz"):
-            rows[f"q_{c}"].append(float(q[k]) if q is not None else nan)
-        rows["mirrored"].append(bool(r.mirrored))
-        rows["fov_deg"].append(r.fov_deg)
-        rows["focal_px"].append(r.focal_px)
-        rows["n_spots"].append(len(r.ids))
-        rows["n_matched"].append(int(r.n_matched))
-        rows["false_match_probability"].append(r.false_match_probability)
-        rows["time_s"].append(r.time_s)
-        rows["message"].append(r.message)
-    return pd.DataFrame(rows).astype(dict(FRAME_COLUMNS, frame=frame_dtype))
+        table = pd.DataFrame(
+            {
+                "frame": key_arr.iloc[cols["spot_frame"]].to_numpy(),
+                "spot": cols["spot"],
+                "catalog_id": cols["catalog_id"],
+                "residual_arcsec": cols["residual_arcsec"],
+            }
+        )
+        return table.astype(dict(SPOT_COLUMNS, frame=frame_dtype))
+    q = cols.pop("quaternion")
+    table = pd.DataFrame(
+        {
+            "frame": key_arr.to_numpy(),
+            **{k: cols[k] for k in ("status", "ok", "method", "ra_deg", "dec_deg", "roll_deg")},
+            "q_w": q[:, 0],
+            "q_x": q[:, 1],
+            "q_y": q[:, 2],
+            "q_z": q[:, 3],
+            **{k: cols[k] for k in ("mirrored", "fov_deg", "focal_px", "n_spots", "n_matched",
+                                     "false_match_probability", "time_s", "message")},
+        }
+    )
+    return table.astype(dict(FRAME_COLUMNS, frame=frame_dtype))
 
 
 def _records_from_spots(part: pd.DataFrame, frame: str, x: str, y: str, mag: Optional[str]) -> list[Any]:

@@ -457,6 +457,7 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tracking::identify_hinted, m)?)?;
     m.add_function(wrap_pyfunction!(tracking::simulate_sequence, m)?)?;
     m.add_function(wrap_pyfunction!(tracking::quaternion_from_radec_roll, m)?)?;
+    m.add_function(wrap_pyfunction!(outcome::result_columns, m)?)?;
     m.add_class::<PyIdentifyConfig>()?;
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;

@@ -1,0 +1,95 @@
+"""starid.dask on a LocalCluster against identify_many on the same machine, the same frames.
+
+    python benches/bench_dask.py [--frames 1000000] [--partitions 100]
+
+Frames: 1 000 distinct simulated 12°/512 px frames (bundled catalogue, mag 6, 0.2 px, spots
+in random order), repeated to ``--frames``; the Dask bag builds each partition's records on its
+worker from the pool (shipped once), so what is timed is identification and the engine. Reports
+frames/s for identify_many (all cores, one process) and for LocalClusters of 1 and 2 worker
+processes (one thread each: identify_many inside a partition uses the worker's cores), the
+ratio to identify_many, the workers' peak memory (RSS sampled every 0.2 s), and the engine's
+cost per task (a job of ``--partitions`` one-frame partitions).
+"""
+
+from __future__ import annotations
+
+import argparse
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+import starid
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=1_000_000)
+    ap.add_argument("--partitions", type=int, default=100)
+    args = ap.parse_args()
+    import dask.bag as db
+    import distributed
+    from dask.delayed import delayed
+
+    import starid.dask as sd
+
+    cat = starid.Catalog.default()
+    kw: dict[str, Any] = dict(fov_deg=12.0, image_size=(512, 512), brightness_order=False)
+    pool = [starid.simulate(cat, seed=s, noise_px=0.2, mag_limit=6.0, fov_deg=12.0, image_size=(512, 512)).xy for s in range(1000)]
+    n, parts = args.frames, args.partitions
+    per = -(-n // parts)
+    frames = [pool[k % len(pool)] for k in range(n)]
+    starid.identify_many(frames[:1000], cat, **kw)  # index built outside the timing
+    t = time.perf_counter()
+    local = starid.identify_many(frames, cat, **kw)
+    t_local = time.perf_counter() - t
+    ok_local = sum(r.ok for r in local)
+    del local
+    print(f"identify_many, one process, all cores: {n / t_local:,.0f} frames/s ({ok_local} of {n} identified)")
+
+    def records(idx: list[int], pool: list[np.ndarray]) -> list[Any]:
+        return [(k, pool[k % len(pool)]) for i in idx for k in range(i * per, min((i + 1) * per, n))]
+
+    rows = []
+    for workers in (1, 2):
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        with distributed.Client(cluster) as client:
+            pool_node = delayed(pool, pure=True)
+            bag = db.from_sequence(range(parts), npartitions=parts).map_partitions(records, pool_node)
+            # Warm up: every worker imports starid and builds its index once.
+            sd.identify_frames(db.from_sequence([(k, pool[k]) for k in range(4 * workers)], npartitions=2 * workers), cat, **kw).compute()
+            peak: dict[str, int] = {}
+            stop = threading.Event()
+
+            def sample() -> None:
+                import psutil  # a dependency of distributed
+
+                while not stop.is_set():
+                    for w, rss in client.run(lambda: psutil.Process().memory_info().rss).items():
+                        peak[w] = max(peak.get(w, 0), rss)
+                    time.sleep(0.2)
+
+            th = threading.Thread(target=sample, daemon=True)
+            th.start()
+            t = time.perf_counter()
+            df = sd.identify_frames(bag, cat, **kw).compute()
+            dt = time.perf_counter() - t
+            stop.set()
+            th.join()
+            assert len(df) == n and df.frame.nunique() == n
+            t = time.perf_counter()
+            sd.identify_frames(db.from_sequence([(k, pool[k % 1000]) for k in range(parts)], npartitions=parts), cat, **kw).compute()
+            per_task = (time.perf_counter() - t) / parts
+            rows.append((workers, n / dt, int(df.ok.sum()), max(peak.values()) / 1e6, per_task))
+        cluster.close()
+    print("| setup | frames/s | identified | vs identify_many | peak RSS per worker | engine cost per task |")
+    print("|---|---|---|---|---|---|")
+    print(f"| identify_many (1 process, 2 cores) | {n / t_local:,.0f} | {ok_local:,} | 1.00 | - | - |")
+    for workers, rate, ok, rss, per_task in rows:
+        print(f"| LocalCluster, {workers} worker{'s' if workers > 1 else ''} | {rate:,.0f} | {ok:,} | {rate * t_local / n:.2f} | "
+              f"{rss:.0f} MB | {per_task * 1e3:.1f} ms |")
+
+
+if __name__ == "__main__":
+    main()
