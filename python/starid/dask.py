@@ -185,7 +185,7 @@ def identify_frames(
         frames = dd.read_parquet(frames)
     if isinstance(frames, dask_bag.Bag):
         if frame_dtype is None:
-            first = frames.take(1, npartitions=-1, warn=False)  # type: ignore[no-untyped-call]
+            first = frames.take(1, npartitions=1, warn=False)  # type: ignore[no-untyped-call]
             is_int = bool(first) and isinstance(first[0][0], (int, np.integer)) and not isinstance(first[0][0], bool)
             frame_dtype = "int64" if is_int else "str"
         meta = meta_for(frame_dtype)
