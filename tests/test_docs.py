@@ -7,7 +7,7 @@ import importlib
 
 import pytest
 
-MODULES = ["starid", "starid._catalog", "starid._identify", "starid.guide", "starid.pointing", "starid.starlist", "starid.tracking"]
+MODULES = ["starid", "starid._catalog", "starid._identify", "starid.guide", "starid.pointing", "starid.starlist", "starid.tracking", "starid.images"]
 
 
 @pytest.mark.parametrize("name", MODULES)

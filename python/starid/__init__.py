@@ -29,12 +29,15 @@ from ._identify import (
     simulate_scene,
 )
 from ._starid import __version__
+from .images import Centroids, ImageIdentification, extract_centroids, identify_image, read_image, simulate_image
 from .starlist import read_star_list
 from .tracking import SequenceFrame, Tracker, TrackStep, simulate_sequence, track
 
 __all__ = [
     "DEFAULT_FOV_RANGE_DEG",
     "Camera",
+    "Centroids",
+    "ImageIdentification",
     "Catalog",
     "CatalogError",
     "Frame",
@@ -48,7 +51,11 @@ __all__ = [
     "SCENE_FAMILIES",
     "StaridError",
     "__version__",
+    "extract_centroids",
     "guide",
+    "identify_image",
+    "read_image",
+    "simulate_image",
     "identify",
     "identify_many",
     "pointing",

@@ -320,6 +320,18 @@ def identify(
     >>> res.ok, round(res.fov_deg, 2)
     (True, 17.3)
     """
+    from .images import _is_image
+
+    if _is_image(xy):
+        from .images import identify_image
+
+        if magnitudes is not None:
+            raise InvalidInputError("an image's magnitudes come from its spots: do not pass magnitudes=")
+        return identify_image(
+            xy, catalog, fov_deg, image_size=image_size, camera=camera, fov_range_deg=fov_range_deg,
+            attitude_hint=attitude_hint, hint_uncertainty_deg=hint_uncertainty_deg, hint_fallback=hint_fallback,
+            config=config, **settings,
+        ).identification
     cat = resolve_catalog(catalog)
     cam = _camera(camera, fov_deg, image_size)
     a = _xy(xy)

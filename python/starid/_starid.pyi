@@ -34,6 +34,8 @@ __all__ = [
     "methods",
     "quaternion_from_radec_roll",
     "result_columns",
+    "extract_centroids",
+    "simulate_image",
     "monte_carlo_distances",
     "predicted_distance_covariance",
     "simulate",
@@ -380,3 +382,32 @@ class Tracker:
     @property
     def has_lock(self) -> bool: ...
 def result_columns(results: list[Identification], spots: bool = False) -> dict[str, Any]: ...
+def extract_centroids(
+    image: npt.NDArray[np.float32],
+    threshold_sigma: float = 5.0,
+    background_block: int = 32,
+    min_pixels: int = 1,
+    max_spots: int = 2000,
+    saturation: Optional[float] = None,
+    max_elongation: float = 3.0,
+    drop_flagged: bool = True,
+    hot_pixel_ratio: float = 0.25,
+) -> dict[str, Any]: ...
+def simulate_image(
+    catalog: Catalog,
+    camera: Camera,
+    seed: int,
+    mag_limit: Optional[float] = None,
+    false_stars: int = 0,
+    psf_sigma_px: float = 1.2,
+    zero_point_e: float = 2.0e6,
+    background_e: float = 200.0,
+    gradient_e: float = 0.0,
+    read_noise_e: float = 5.0,
+    hot_pixels: int = 0,
+    hot_pixel_e: float = 5000.0,
+    trail: Optional[tuple[tuple[float, float, float, float], float]] = None,
+    full_well_e: float = 60000.0,
+    gain_e_per_dn: float = 1.0,
+    bits: int = 16,
+) -> tuple[npt.NDArray[np.float32], dict[str, Any]]: ...

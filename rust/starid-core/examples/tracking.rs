@@ -20,8 +20,8 @@ use rand::{Rng, SeedableRng};
 use starid_core::simulate::{simulate_sequence, SequenceConfig};
 use starid_core::tracking::{TrackMode, Tracker, TrackerConfig};
 use starid_core::{
-    simulate, AttitudeHint, Camera, Catalog, FalseStarMags, HintFallback, IdentifyConfig,
-    Identification, SimConfig, SimFrame, Solver,
+    simulate, AttitudeHint, Camera, Catalog, FalseStarMags, HintFallback, Identification,
+    IdentifyConfig, SimConfig, SimFrame, Solver,
 };
 
 fn pct(v: &mut [f64], q: f64) -> f64 {
@@ -44,7 +44,10 @@ fn offset(rng: &mut impl Rng, angle: f64) -> Rotation3<f64> {
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("N")).collect();
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().expect("N"))
+        .collect();
     let n_frames = args.first().copied().unwrap_or(2000);
     let seq_frames = args.get(1).copied().unwrap_or(2000);
     let catalog = Arc::new(Catalog::bundled());
@@ -69,7 +72,9 @@ fn main() {
     let (mut ok_lis, mut ok_hint, mut hinted, mut wrong_hint) = (0, 0, 0, 0);
     for f in &frames {
         let t = Instant::now();
-        let a = solver.identify(&f.centroids, Some(&f.magnitudes), &cam, &cfg).unwrap();
+        let a = solver
+            .identify(&f.centroids, Some(&f.magnitudes), &cam, &cfg)
+            .unwrap();
         t_lis.push(t.elapsed().as_secs_f64());
         ok_lis += usize::from(a.is_identified());
         let angle = 1f64.to_radians() * rng.random::<f64>();
@@ -80,7 +85,14 @@ fn main() {
         };
         let t = Instant::now();
         let b = solver
-            .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &hint, HintFallback::LostInSpace)
+            .identify_hinted(
+                &f.centroids,
+                Some(&f.magnitudes),
+                &cam,
+                &cfg,
+                &hint,
+                HintFallback::LostInSpace,
+            )
             .unwrap();
         t_hint.push(t.elapsed().as_secs_f64());
         ok_hint += usize::from(b.is_identified());
@@ -107,7 +119,14 @@ fn main() {
             mirrored: Some(f.mirrored),
         };
         let b = solver
-            .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &hint, HintFallback::None)
+            .identify_hinted(
+                &f.centroids,
+                Some(&f.magnitudes),
+                &cam,
+                &cfg,
+                &hint,
+                HintFallback::None,
+            )
             .unwrap();
         ok += usize::from(b.is_identified());
         bad += wrong(&b, f);
@@ -115,7 +134,10 @@ fn main() {
             println!("  wrong-hint solution: matched {} of {} spots, bound {:.2e}, radius {:.1}\", sigma {:.2} px, hypotheses {}, wrong {}", b.matched, f.centroids.len(), b.false_match_probability, b.match_radius_rad.to_degrees() * 3600.0, b.centroid_sigma_px, b.hypotheses, wrong(&b, f));
         }
     }
-    println!("2. hint 10° off, uncertainty 1°, no fallback: {ok} of {} identified, {bad} wrong ids", frames.len());
+    println!(
+        "2. hint 10° off, uncertainty 1°, no fallback: {ok} of {} identified, {bad} wrong ids",
+        frames.len()
+    );
 
     // 3. Two or three real stars among false spots.
     for real in [2usize, 3] {
@@ -133,7 +155,9 @@ fn main() {
             let mut f = simulate(&catalog, &cam, &sim, seed).expect("frame");
             seed += 1;
             // Keep `real` real stars (the brightest), drop the others.
-            let mut reals: Vec<usize> = (0..f.centroids.len()).filter(|&i| f.catalog_index[i].is_some()).collect();
+            let mut reals: Vec<usize> = (0..f.centroids.len())
+                .filter(|&i| f.catalog_index[i].is_some())
+                .collect();
             if reals.len() < real {
                 continue;
             }
@@ -154,7 +178,14 @@ fn main() {
                 mirrored: Some(f.mirrored),
             };
             let a = solver
-                .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &good, HintFallback::None)
+                .identify_hinted(
+                    &f.centroids,
+                    Some(&f.magnitudes),
+                    &cam,
+                    &cfg,
+                    &good,
+                    HintFallback::None,
+                )
                 .unwrap();
             ok_in += usize::from(a.is_identified());
             bad_in += wrong(&a, f);
@@ -163,7 +194,14 @@ fn main() {
                 ..good
             };
             let b = solver
-                .identify_hinted(&f.centroids, Some(&f.magnitudes), &cam, &cfg, &off, HintFallback::None)
+                .identify_hinted(
+                    &f.centroids,
+                    Some(&f.magnitudes),
+                    &cam,
+                    &cfg,
+                    &off,
+                    HintFallback::None,
+                )
                 .unwrap();
             ok_out += usize::from(b.is_identified());
             bad_out += wrong(&b, f);
@@ -201,7 +239,13 @@ fn main() {
         for (i, f) in seq.iter().enumerate() {
             let t = Instant::now();
             let step = tracker
-                .update(&solver, &f.frame.centroids, Some(&f.frame.magnitudes), &cam, f.t_s)
+                .update(
+                    &solver,
+                    &f.frame.centroids,
+                    Some(&f.frame.magnitudes),
+                    &cam,
+                    f.t_s,
+                )
                 .expect("update");
             times.push(t.elapsed().as_secs_f64());
             if seq_cfg.blank.contains(&i) {
@@ -217,7 +261,12 @@ fn main() {
                 unid_real += 1;
             }
             if std::env::var("STARID_WRONG").is_ok() && wrong(id, &f.frame) > 0 {
-                for (o, (a, b)) in id.catalog_index.iter().zip(&f.frame.catalog_index).enumerate() {
+                for (o, (a, b)) in id
+                    .catalog_index
+                    .iter()
+                    .zip(&f.frame.catalog_index)
+                    .enumerate()
+                {
                     if a.is_some() && a != b {
                         let star = a.unwrap() as usize;
                         let imaged = f.frame.catalog_index.contains(&Some(star as u32));
@@ -225,11 +274,22 @@ fn main() {
                     }
                 }
             }
-            if std::env::var("STARID_DEBUG").is_ok() && (step.mode != TrackMode::Tracking || wrong(id, &f.frame) > 0) && i > 0 && !(seq_cfg.blank.start..=seq_cfg.blank.end).contains(&i) {
+            if std::env::var("STARID_DEBUG").is_ok()
+                && (step.mode != TrackMode::Tracking || wrong(id, &f.frame) > 0)
+                && i > 0
+                && !(seq_cfg.blank.start..=seq_cfg.blank.end).contains(&i)
+            {
                 let mut order: Vec<usize> = (0..f.frame.centroids.len()).collect();
                 order.sort_by(|&a, &b| f.frame.magnitudes[a].total_cmp(&f.frame.magnitudes[b]));
-                let real_top = order.iter().take(10).filter(|&&o| f.frame.catalog_index[o].is_some()).count();
-                let err = step.predicted.map(|p| starid_core::geometry::rotation_angle_between(&p, &f.frame.r_icrs_to_cam).to_degrees());
+                let real_top = order
+                    .iter()
+                    .take(10)
+                    .filter(|&&o| f.frame.catalog_index[o].is_some())
+                    .count();
+                let err = step.predicted.map(|p| {
+                    starid_core::geometry::rotation_angle_between(&p, &f.frame.r_icrs_to_cam)
+                        .to_degrees()
+                });
                 println!("  frame {i}: mode {:?} ok {} wrong {} spots {} real {} real-in-top10 {real_top} u {:.3}° pred err {:?}°", step.mode, id.is_identified(), wrong(id, &f.frame), f.frame.centroids.len(), f.frame.real_stars(), step.uncertainty_rad.to_degrees(), err);
             }
             if i >= seq_cfg.blank.end && regained.is_none() && id.is_identified() {

@@ -57,6 +57,7 @@
 pub mod attitude;
 pub mod catalog;
 pub mod error;
+pub mod extract;
 pub mod geometry;
 pub mod guide;
 pub mod identify;

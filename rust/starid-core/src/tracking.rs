@@ -164,7 +164,10 @@ impl Tracker {
                 // The rate's own change since the last estimate, over this interval, and some
                 // room for jitter and for the rate's error.
                 let u = c.min_uncertainty_rad + 2.0 * self.rate_change * dt + 0.1 * w.norm() * dt;
-                (turn * r0, u.min(c.max_rate_rad_s * dt + c.min_uncertainty_rad))
+                (
+                    turn * r0,
+                    u.min(c.max_rate_rad_s * dt + c.min_uncertainty_rad),
+                )
             }
             None => (r0, c.max_rate_rad_s * dt + c.min_uncertainty_rad),
         })
@@ -201,7 +204,9 @@ impl Tracker {
         t_s: f64,
     ) -> Result<TrackStep> {
         if !t_s.is_finite() {
-            return Err(Error::invalid_input(format!("the frame time must be finite, got {t_s}")));
+            return Err(Error::invalid_input(format!(
+                "the frame time must be finite, got {t_s}"
+            )));
         }
         let prediction = self.predict(t_s);
         let fallback = if self.config.fallback {
@@ -216,7 +221,14 @@ impl Tracker {
                     uncertainty_rad: u.min(crate::identify::MAX_HINT_UNCERTAINTY_RAD),
                     mirrored: Some(mirrored),
                 };
-                solver.identify_hinted(centroids, magnitudes, camera, &self.identify, &hint, fallback)?
+                solver.identify_hinted(
+                    centroids,
+                    magnitudes,
+                    camera,
+                    &self.identify,
+                    &hint,
+                    fallback,
+                )?
             }
             _ => solver.identify(centroids, magnitudes, camera, &self.identify)?,
         };
@@ -227,15 +239,15 @@ impl Tracker {
         };
         if let (true, Some(r)) = (id.is_identified(), id.r_icrs_to_cam) {
             // A lock on the other handedness, or after a long gap, starts a new history.
-            let gap = self.last.is_some_and(|(t0, _, m)| m != id.mirrored || (t_s - t0).abs() > RATE_BASELINE_S);
+            let gap = self
+                .last
+                .is_some_and(|(t0, _, m)| m != id.mirrored || (t_s - t0).abs() > RATE_BASELINE_S);
             if gap {
                 self.history.clear();
                 self.rate = None;
             }
             self.history.push_back((t_s, r));
-            while self.history.len() > 2
-                && (t_s - self.history[0].0).abs() > RATE_BASELINE_S
-            {
+            while self.history.len() > 2 && (t_s - self.history[0].0).abs() > RATE_BASELINE_S {
                 self.history.pop_front();
             }
             if self.history.len() > RATE_HISTORY {

@@ -11,6 +11,7 @@ mod catalog;
 mod convert;
 mod errors;
 mod guide;
+mod images;
 mod outcome;
 mod pointing;
 mod tracking;
@@ -458,6 +459,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tracking::simulate_sequence, m)?)?;
     m.add_function(wrap_pyfunction!(tracking::quaternion_from_radec_roll, m)?)?;
     m.add_function(wrap_pyfunction!(outcome::result_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(images::extract_centroids, m)?)?;
+    m.add_function(wrap_pyfunction!(images::simulate_image, m)?)?;
     m.add_class::<PyIdentifyConfig>()?;
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;

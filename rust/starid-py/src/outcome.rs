@@ -524,33 +524,98 @@ pub fn result_columns<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let n = results.len();
     let d = PyDict::new(py);
-    let f = |g: &dyn Fn(&PyIdentification) -> f64| -> Vec<f64> { results.iter().map(|r| g(r)).collect() };
-    d.set_item("status", results.iter().map(|r| r.status).collect::<Vec<_>>())?;
-    d.set_item("method", results.iter().map(|r| r.method).collect::<Vec<_>>())?;
+    let f = |g: &dyn Fn(&PyIdentification) -> f64| -> Vec<f64> {
+        results.iter().map(|r| g(r)).collect()
+    };
+    d.set_item(
+        "status",
+        results.iter().map(|r| r.status).collect::<Vec<_>>(),
+    )?;
+    d.set_item(
+        "method",
+        results.iter().map(|r| r.method).collect::<Vec<_>>(),
+    )?;
     d.set_item(
         "message",
-        results.iter().map(|r| r.message.clone()).collect::<Vec<_>>(),
+        results
+            .iter()
+            .map(|r| r.message.clone())
+            .collect::<Vec<_>>(),
     )?;
     d.set_item(
         "ok",
-        results.iter().map(|r| r.rotation.is_some()).collect::<Vec<_>>().into_pyarray(py),
+        results
+            .iter()
+            .map(|r| r.rotation.is_some())
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
     )?;
-    d.set_item("mirrored", results.iter().map(|r| r.mirrored).collect::<Vec<_>>().into_pyarray(py))?;
+    d.set_item(
+        "mirrored",
+        results
+            .iter()
+            .map(|r| r.mirrored)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
     let radec: Vec<(f64, f64, f64)> = results.iter().map(|r| r.radec_roll_deg()).collect();
-    d.set_item("ra_deg", radec.iter().map(|x| x.0).collect::<Vec<_>>().into_pyarray(py))?;
-    d.set_item("dec_deg", radec.iter().map(|x| x.1).collect::<Vec<_>>().into_pyarray(py))?;
-    d.set_item("roll_deg", radec.iter().map(|x| x.2).collect::<Vec<_>>().into_pyarray(py))?;
+    d.set_item(
+        "ra_deg",
+        radec
+            .iter()
+            .map(|x| x.0)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "dec_deg",
+        radec
+            .iter()
+            .map(|x| x.1)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "roll_deg",
+        radec
+            .iter()
+            .map(|x| x.2)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
     d.set_item("fov_deg", f(&|r| r.fov_deg).into_pyarray(py))?;
     d.set_item("focal_px", f(&|r| r.focal_px).into_pyarray(py))?;
-    d.set_item("false_match_probability", f(&|r| r.false_match_probability).into_pyarray(py))?;
+    d.set_item(
+        "false_match_probability",
+        f(&|r| r.false_match_probability).into_pyarray(py),
+    )?;
     d.set_item("time_s", f(&|r| r.time_s).into_pyarray(py))?;
     let q: Vec<f64> = results
         .iter()
         .flat_map(|r| r.rotation.as_ref().map_or([f64::NAN; 4], quaternion_wxyz))
         .collect();
-    d.set_item("quaternion", Array2::from_shape_vec((n, 4), q).expect("4 columns").into_pyarray(py))?;
-    d.set_item("n_spots", results.iter().map(|r| r.ids.len() as i64).collect::<Vec<_>>().into_pyarray(py))?;
-    d.set_item("n_matched", results.iter().map(|r| r.n_matched as i64).collect::<Vec<_>>().into_pyarray(py))?;
+    d.set_item(
+        "quaternion",
+        Array2::from_shape_vec((n, 4), q)
+            .expect("4 columns")
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "n_spots",
+        results
+            .iter()
+            .map(|r| r.ids.len() as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "n_matched",
+        results
+            .iter()
+            .map(|r| r.n_matched as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
     if spots {
         let total: usize = results.iter().map(|r| r.ids.len()).sum();
         let (mut frame, mut spot, mut ids, mut res) = (

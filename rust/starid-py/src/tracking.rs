@@ -121,7 +121,10 @@ impl PyTracker {
         let solver = self.solver.clone();
         let cam = self.camera;
         let step = py.detach(|| {
-            let mut tracker = self.tracker.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let mut tracker = self
+                .tracker
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
             tracker.update(&solver, &centroids, mags.as_deref(), &cam, t_s)
         });
         let step = step.map_err(PyStaridError)?;
@@ -134,8 +137,9 @@ impl PyTracker {
         d.set_item("mode", step.mode.as_str())?;
         d.set_item(
             "rate_deg_s",
-            step.rate_rad_s
-                .map(|w| vec![w.x.to_degrees(), w.y.to_degrees(), w.z.to_degrees()].into_pyarray(py)),
+            step.rate_rad_s.map(|w| {
+                vec![w.x.to_degrees(), w.y.to_degrees(), w.z.to_degrees()].into_pyarray(py)
+            }),
         )?;
         d.set_item("uncertainty_deg", step.uncertainty_rad.to_degrees())?;
         d.set_item(
@@ -228,5 +232,7 @@ pub fn simulate_sequence<'py>(
 /// `[w, x, y, z]` of the attitude at boresight (ra, dec) and roll, radians (the core's rule).
 #[pyfunction]
 pub fn quaternion_from_radec_roll(ra_rad: f64, dec_rad: f64, roll_rad: f64) -> [f64; 4] {
-    geometry::quaternion_wxyz(&geometry::attitude_from_radec_roll(ra_rad, dec_rad, roll_rad))
+    geometry::quaternion_wxyz(&geometry::attitude_from_radec_roll(
+        ra_rad, dec_rad, roll_rad,
+    ))
 }

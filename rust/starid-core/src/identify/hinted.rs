@@ -303,7 +303,8 @@ impl Solver {
                         continue;
                     }
                     // |angle(a, b) − θ| ≤ tol, as cosines.
-                    let (cos_lo, cos_hi) = ((theta + tol).min(PI).cos(), (theta - tol).max(0.0).cos());
+                    let (cos_lo, cos_hi) =
+                        ((theta + tol).min(PI).cos(), (theta - tol).max(0.0).cos());
                     for idx in [i, j] {
                         if candidates[idx].is_none() {
                             candidates[idx] = Some(lookup(top[idx]));

@@ -383,7 +383,8 @@ impl Search<'_> {
         let s = &mut self.scratch;
         // Matched stars, sorted, for look-ups.
         s.fitted.clear();
-        s.fitted.extend(s.matches.iter().filter_map(|m| m.map(|(c, _)| Some(c))));
+        s.fitted
+            .extend(s.matches.iter().filter_map(|m| m.map(|(c, _)| Some(c))));
         if s.fitted.len() < 2 {
             return 0;
         }
@@ -398,10 +399,7 @@ impl Search<'_> {
                     x = cam.width_px - x;
                 }
                 if (0.0..cam.width_px).contains(&x) && (0.0..cam.height_px).contains(&y) {
-                    on_sensor.push((
-                        cat_mag[star as usize],
-                        matched.binary_search(&star).is_ok(),
-                    ));
+                    on_sensor.push((cat_mag[star as usize], matched.binary_search(&star).is_ok()));
                 }
             }
         });

@@ -46,8 +46,5 @@ pub fn rotation() -> impl Strategy<Value = Rotation3<f64>> {
 /// The bundled Hipparcos catalogue (Hp <= 6.5), loaded once.
 pub fn bundled() -> Arc<Catalog> {
     static CAT: OnceLock<Arc<Catalog>> = OnceLock::new();
-    CAT.get_or_init(|| {
-        Arc::new(Catalog::bundled())
-    })
-    .clone()
+    CAT.get_or_init(|| Arc::new(Catalog::bundled())).clone()
 }

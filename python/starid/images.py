@@ -1,0 +1,300 @@
+"""Star images in: centroid extraction, image readers, identification of a picture, simulated
+images.
+
+>>> import starid
+>>> img, truth = starid.simulate_image(fov_deg=12.0, image_size=(640, 480), seed=3, hot_pixels=10)
+>>> spots = starid.extract_centroids(img)
+>>> res = starid.identify(img, fov_deg=12.0)            # image_size comes from the image
+>>> res.ok
+True
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _starid
+from ._catalog import resolve_catalog
+from ._errors import InvalidInputError
+from ._identify import CatalogLike, Frame, Identification, _camera
+
+__all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: Spot flags (bits of :attr:`Centroids.flags`).
+FLAGS = {"hot_pixel": 1, "saturated": 2, "elongated": 4, "border": 8}
+
+_PIL_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".gif", ".webp"}
+_FITS_SUFFIXES = (".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
+
+
+@dataclass(frozen=True)
+class Centroids:
+    """Spots extracted from an image, brightest first.
+
+    ``xy`` (N, 2) pixels (x right, y down, origin at the top-left corner: the centre of pixel
+    ``(i, j)`` is ``(i + 0.5, j + 0.5)``), ``flux`` (background subtracted), ``magnitudes``
+    (instrument, ``-2.5 log10 flux``), ``peak``, ``pixels`` (above the threshold),
+    ``elongation``, ``flags`` (:data:`FLAGS` bits: saturated, border; hot pixels and elongated
+    spots are dropped unless ``drop_flagged=False``), and of the image: ``image_size``,
+    ``background`` (median level), ``noise_sigma``, ``hot_pixels`` (cleaned), ``dropped``.
+    """
+
+    xy: npt.NDArray[np.float64]
+    flux: npt.NDArray[np.float64]
+    magnitudes: npt.NDArray[np.float64]
+    peak: npt.NDArray[np.float64]
+    pixels: npt.NDArray[np.int64]
+    elongation: npt.NDArray[np.float64]
+    flags: npt.NDArray[np.uint8]
+    image_size: tuple[float, float]
+    background: float
+    noise_sigma: float
+    hot_pixels: int
+    dropped: int
+
+    def __len__(self) -> int:
+        return int(self.xy.shape[0])
+
+
+@dataclass(frozen=True)
+class ImageIdentification:
+    """An image's identification (``identification``, whose ids follow ``centroids``) and the
+    spots extracted from it."""
+
+    identification: Identification
+    centroids: Centroids
+
+    @property
+    def ok(self) -> bool:
+        """Whether the image was identified."""
+        return bool(self.identification.ok)
+
+
+def read_image(path: PathLike) -> npt.NDArray[np.float32]:
+    """Read an image file as a 2-D float32 array (H, W): PNG, JPEG, TIFF (8 or 16 bit; colour
+    converted to luminance) through Pillow (``pip install starid[images]``), FITS through
+    astropy (``pip install starid[fits]``; the first image HDU)."""
+    p = Path(os.fspath(path))
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a directory, not an image")
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: no such image file")
+    name = p.name.lower()
+    if name.endswith(_FITS_SUFFIXES):
+        try:
+            from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
+        except ImportError as e:
+            raise ImportError("reading FITS images needs astropy: pip install 'starid[fits]'") from e
+        try:
+            with fits.open(p) as hdus:
+                data = next((np.asarray(h.data) for h in hdus if getattr(h, "data", None) is not None and h.data.ndim >= 2), None)
+        except OSError as e:
+            raise InvalidInputError(f"{p}: not a readable FITS file ({e})") from None
+        if data is None:
+            raise InvalidInputError(f"{p}: holds no image")
+        return _as_image(data, str(p))
+    if p.suffix.lower() in _PIL_SUFFIXES:
+        try:
+            from PIL import Image
+        except ImportError as e:
+            raise ImportError("reading PNG/JPEG/TIFF images needs Pillow: pip install 'starid[images]'") from e
+        try:
+            with Image.open(p) as im:
+                arr = np.asarray(im)
+        except (OSError, ValueError) as e:
+            raise InvalidInputError(f"{p}: not a readable image ({e})") from None
+        return _as_image(arr, str(p))
+    raise InvalidInputError(f"{p}: unsupported image format {p.suffix or '(none)'}: PNG, JPEG, TIFF or FITS")
+
+
+def _as_image(arr: Any, name: str = "image") -> npt.NDArray[np.float32]:
+    """A 2-D float32 image from an array: (H, W), or (H, W, 3|4) colour → luminance."""
+    a = np.asarray(arr)
+    if a.ndim == 3 and a.shape[2] in (3, 4):
+        a = a[:, :, :3].astype(np.float32) @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+    if a.ndim != 2:
+        raise InvalidInputError(f"{name} must be a 2-D image (H, W) or colour (H, W, 3), got shape {a.shape}")
+    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
+        raise InvalidInputError(f"{name} must hold real numbers, got {a.dtype}")
+    img = np.ascontiguousarray(a, dtype=np.float32)
+    if img.shape[0] < 3 or img.shape[1] < 3:
+        raise InvalidInputError(f"{name} must be at least 3 x 3 pixels, got {img.shape}")
+    if not np.isfinite(img).any():
+        raise InvalidInputError(f"{name} holds no finite pixel")
+    return img
+
+
+def _load(image: Any) -> npt.NDArray[np.float32]:
+    if isinstance(image, (str, os.PathLike)):
+        return read_image(image)
+    return _as_image(image)
+
+
+def extract_centroids(
+    image: Union[npt.ArrayLike, PathLike],
+    *,
+    dark: Optional[Union[npt.ArrayLike, PathLike]] = None,
+    flat: Optional[Union[npt.ArrayLike, PathLike]] = None,
+    threshold_sigma: float = 5.0,
+    background_block: int = 32,
+    min_pixels: int = 1,
+    max_spots: int = 2000,
+    saturation: Optional[float] = None,
+    max_elongation: float = 3.0,
+    drop_flagged: bool = True,
+    hot_pixel_ratio: float = 0.25,
+) -> Centroids:
+    """The star spots of an image (array or file), brightest first.
+
+    ``dark`` (a dark or median frame) is subtracted and ``flat`` divided out (normalised to
+    its median) before extraction; non-finite pixels (a clipped or masked background) take the
+    image's median. Background: block medians of ``background_block`` pixels, interpolated;
+    detection ``threshold_sigma`` noise σ above it; hot pixels cleaned first.
+
+    >>> import starid
+    >>> img, _ = starid.simulate_image(image_size=(320, 240), fov_deg=8.0, seed=1)
+    >>> c = starid.extract_centroids(img)
+    >>> len(c) > 0, c.xy.shape[1]
+    (True, 2)
+    """
+    img = _load(image)
+    if dark is not None:
+        dk = _load(dark)
+        if dk.shape != img.shape:
+            raise InvalidInputError(f"dark has shape {dk.shape}, the image {img.shape}")
+        img = np.asarray(img - dk, dtype=np.float32)
+    if flat is not None:
+        fl = _load(flat)
+        if fl.shape != img.shape:
+            raise InvalidInputError(f"flat has shape {fl.shape}, the image {img.shape}")
+        ok = np.isfinite(fl)
+        med = float(np.median(fl[ok])) if ok.any() else 0.0
+        if not med > 0:
+            raise InvalidInputError("flat must have a positive median")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            img = np.asarray(img / np.where(fl > 0, fl / med, np.nan), dtype=np.float32)
+    finite = np.isfinite(img)
+    if not finite.all():
+        img = np.where(finite, img, np.float32(np.median(img[finite]))).astype(np.float32)
+    raw: dict[str, Any] = _starid.extract_centroids(
+        np.ascontiguousarray(img, dtype=np.float32),
+        float(threshold_sigma),
+        int(background_block),
+        int(min_pixels),
+        int(max_spots),
+        None if saturation is None else float(saturation),
+        float(max_elongation),
+        bool(drop_flagged),
+        float(hot_pixel_ratio),
+    )
+    flux = np.asarray(raw["flux"], dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mags = np.where(flux > 0, -2.5 * np.log10(np.where(flux > 0, flux, 1.0)), np.inf)
+    return Centroids(
+        xy=raw["xy"],
+        flux=flux,
+        magnitudes=mags,
+        peak=raw["peak"],
+        pixels=raw["pixels"],
+        elongation=raw["elongation"],
+        flags=raw["flags"],
+        image_size=(float(img.shape[1]), float(img.shape[0])),
+        background=float(raw["background"]),
+        noise_sigma=float(raw["noise_sigma"]),
+        hot_pixels=int(raw["hot_pixels"]),
+        dropped=int(raw["dropped"]),
+    )
+
+
+def identify_image(
+    image: Union[npt.ArrayLike, PathLike],
+    catalog: CatalogLike = None,
+    fov_deg: Optional[float] = None,
+    *,
+    dark: Optional[Union[npt.ArrayLike, PathLike]] = None,
+    flat: Optional[Union[npt.ArrayLike, PathLike]] = None,
+    extract: Optional[dict[str, Any]] = None,
+    **kwargs: Any,
+) -> ImageIdentification:
+    """Extract an image's spots and identify them: the identification and the centroids.
+
+    The image size comes from the image; the spots' instrument magnitudes are passed with
+    ``mag_offset=None`` (their zero point is unknown) unless given. ``extract`` holds
+    :func:`extract_centroids` settings; other arguments as :func:`starid.identify`
+    (``fov_deg`` omitted: searched in ``fov_range_deg``).
+    """
+    from ._identify import identify
+
+    c = extract_centroids(image, dark=dark, flat=flat, **(extract or {}))
+    size = kwargs.pop("image_size", None)
+    if size is not None and tuple(float(v) for v in size) != c.image_size:
+        raise InvalidInputError(f"image_size {size} differs from the image's {c.image_size}")
+    kwargs.setdefault("mag_offset", None)
+    mags = c.magnitudes if np.isfinite(c.magnitudes).all() else None
+    if kwargs.get("camera") is not None:
+        res = identify(c.xy, catalog, magnitudes=mags, **kwargs)
+    else:
+        res = identify(c.xy, catalog, fov_deg, c.image_size, magnitudes=mags, **kwargs)
+    return ImageIdentification(res, c)
+
+
+def simulate_image(
+    catalog: CatalogLike = None,
+    fov_deg: float = 12.0,
+    image_size: tuple[float, float] = (1024, 768),
+    *,
+    seed: int = 0,
+    mag_limit: Optional[float] = 6.0,
+    false_stars: int = 0,
+    psf_sigma_px: float = 1.2,
+    zero_point_e: float = 2.0e6,
+    background_e: float = 200.0,
+    gradient_e: float = 0.0,
+    read_noise_e: float = 5.0,
+    hot_pixels: int = 0,
+    hot_pixel_e: float = 5000.0,
+    trail: Optional[tuple[float, float, float, float, float]] = None,
+    full_well_e: float = 60000.0,
+    gain_e_per_dn: float = 1.0,
+    bits: int = 16,
+) -> tuple[npt.NDArray[np.float32], Frame]:
+    """A simulated frame rendered to pixels, with its truth: pixel-integrated Gaussian PSFs
+    (``psf_sigma_px``), a star of magnitude 0 giving ``zero_point_e`` electrons, sky
+    ``background_e`` with a left-to-right ``gradient_e``, hot pixels, a satellite ``trail``
+    ``(x0, y0, x1, y1, electrons per pixel)``, Poisson and read noise, saturation at
+    ``full_well_e``, ``bits``-bit quantisation with ``gain_e_per_dn``.
+    """
+    cat = resolve_catalog(catalog)
+    cam = _camera(None, fov_deg, image_size)
+    tr = None if trail is None else ((float(trail[0]), float(trail[1]), float(trail[2]), float(trail[3])), float(trail[4]))
+    img, d = _starid.simulate_image(
+        cat._native, cam, int(seed), None if mag_limit is None else float(mag_limit), int(false_stars),
+        float(psf_sigma_px), float(zero_point_e), float(background_e), float(gradient_e), float(read_noise_e),
+        int(hot_pixels), float(hot_pixel_e), tr, float(full_well_e), float(gain_e_per_dn), int(bits),
+    )
+    w, h = cam.image_size
+    frame = Frame(
+        xy=d["xy"], magnitudes=d["magnitudes"], true_ids=d["true_ids"], ra_deg=d["ra_deg"], dec_deg=d["dec_deg"],
+        roll_deg=d["roll_deg"], rotation_matrix=d["rotation_matrix"], quaternion=d["quaternion"],
+        mirrored=d["mirrored"], fov_deg=float(cam.fov_deg), image_size=(w, h), seed=int(seed),
+    )
+    return img, frame
+
+
+def _is_image(x: Any) -> bool:
+    """Whether ``identify``'s first argument is an image: a path, a colour array (H, W, 3|4),
+    or a 2-D array at least 16 pixels on each side (a centroid list has 2 columns; an (N, 3)
+    one is a mistake to report, not a picture)."""
+    if isinstance(x, (str, os.PathLike)):
+        return True
+    if isinstance(x, np.ndarray):
+        return (x.ndim == 3 and x.shape[2] in (3, 4) and min(x.shape[:2]) >= 16) or (x.ndim == 2 and min(x.shape) >= 16)
+    return False

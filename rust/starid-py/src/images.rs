@@ -1,0 +1,171 @@
+//! Centroid extraction and the image simulator.
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use starid_core::extract::{extract, ExtractConfig};
+use starid_core::simulate::{render, RenderConfig};
+use starid_core::{simulate as sim, FalseStarMags};
+
+use crate::camera::PyCamera;
+use crate::catalog::PyCatalog;
+use crate::errors::InvalidInputError;
+use crate::{outcome, run_core};
+
+/// The spots of a 2-D image (float32, row-major): dict of arrays, brightest first.
+#[pyfunction]
+#[pyo3(signature = (image, threshold_sigma=5.0, background_block=32, min_pixels=1, max_spots=2000,
+                    saturation=None, max_elongation=3.0, drop_flagged=true, hot_pixel_ratio=0.25))]
+pub fn extract_centroids<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray2<'py, f32>,
+    threshold_sigma: f64,
+    background_block: usize,
+    min_pixels: usize,
+    max_spots: usize,
+    saturation: Option<f64>,
+    max_elongation: f64,
+    drop_flagged: bool,
+    hot_pixel_ratio: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let view = image.as_array();
+    let (h, w) = (view.nrows(), view.ncols());
+    let pixels: Vec<f32> = view.iter().copied().collect();
+    if !(hot_pixel_ratio.is_finite() && (0.0..1.0).contains(&hot_pixel_ratio)) {
+        return Err(InvalidInputError::new_err(format!(
+            "hot_pixel_ratio must be in [0, 1), got {hot_pixel_ratio}"
+        )));
+    }
+    let cfg = ExtractConfig {
+        threshold_sigma,
+        background_block,
+        min_pixels,
+        max_spots,
+        saturation,
+        max_elongation,
+        drop_flagged,
+        hot_pixel_ratio,
+    };
+    let ex = run_core(py, move || extract(&pixels, w, h, &cfg))?;
+    let d = PyDict::new(py);
+    let n = ex.spots.len();
+    let xy: Vec<f64> = ex.spots.iter().flat_map(|s| [s.x, s.y]).collect();
+    d.set_item(
+        "xy",
+        Array2::from_shape_vec((n, 2), xy)
+            .expect("2 columns")
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "flux",
+        ex.spots
+            .iter()
+            .map(|s| s.flux)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "peak",
+        ex.spots
+            .iter()
+            .map(|s| s.peak)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "pixels",
+        ex.spots
+            .iter()
+            .map(|s| i64::from(s.pixels))
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "elongation",
+        ex.spots
+            .iter()
+            .map(|s| s.elongation)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "flags",
+        ex.spots
+            .iter()
+            .map(|s| s.flags)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item("background", ex.background)?;
+    d.set_item("noise_sigma", ex.noise_sigma)?;
+    d.set_item("dropped", ex.dropped)?;
+    d.set_item("hot_pixels", ex.hot_pixels)?;
+    Ok(d)
+}
+
+/// Simulate a frame and render it to pixels: `(image (H, W) float32, frame dict)`.
+#[pyfunction]
+#[pyo3(signature = (catalog, camera, seed, mag_limit=None, false_stars=0, psf_sigma_px=1.2,
+                    zero_point_e=2.0e6, background_e=200.0, gradient_e=0.0, read_noise_e=5.0,
+                    hot_pixels=0, hot_pixel_e=5000.0, trail=None, full_well_e=60000.0,
+                    gain_e_per_dn=1.0, bits=16))]
+pub fn simulate_image<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    camera: &Bound<'py, PyCamera>,
+    seed: u64,
+    mag_limit: Option<f64>,
+    false_stars: usize,
+    psf_sigma_px: f64,
+    zero_point_e: f64,
+    background_e: f64,
+    gradient_e: f64,
+    read_noise_e: f64,
+    hot_pixels: usize,
+    hot_pixel_e: f64,
+    trail: Option<([f64; 4], f64)>,
+    full_well_e: f64,
+    gain_e_per_dn: f64,
+    bits: u32,
+) -> PyResult<(Bound<'py, numpy::PyArray2<f32>>, Bound<'py, PyDict>)> {
+    let cam = camera.get().inner;
+    if hot_pixels > 1_000_000 || false_stars > 100_000 {
+        return Err(InvalidInputError::new_err(
+            "hot_pixels at most 1000000 and false_stars at most 100000",
+        ));
+    }
+    let cfg = sim::SimConfig {
+        mag_limit,
+        false_stars,
+        false_star_mags: FalseStarMags::FromCatalog,
+        ..Default::default()
+    };
+    let rc = RenderConfig {
+        psf_sigma_px,
+        zero_point_e,
+        background_e,
+        gradient_e,
+        read_noise_e,
+        hot_pixels,
+        hot_pixel_e,
+        trail,
+        full_well_e,
+        gain_e_per_dn,
+        bits,
+    };
+    let cat = catalog.get().inner.clone();
+    let (frame, img) = run_core(py, move || {
+        let frame = sim::simulate(&cat, &cam, &cfg, seed)?;
+        let img = render(&frame, &cam, &rc, seed)?;
+        Ok((frame, img))
+    })?;
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let d = outcome::frame(py, &catalog.get().inner, &frame)?;
+    Ok((
+        Array2::from_shape_vec((h, w), img)
+            .expect("H x W")
+            .into_pyarray(py),
+        d,
+    ))
+}

@@ -1,0 +1,112 @@
+"""Star images: extraction, readers, identification of pictures, simulated images."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import starid
+
+
+def _star(w: int, h: int, x: float, y: float, flux: float = 5000.0, sigma: float = 1.2, bg: float = 100.0, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    i, j = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    img = bg + flux / (2 * np.pi * sigma**2) * np.exp(-((i - x) ** 2 + (j - y) ** 2) / (2 * sigma**2))
+    return (img + rng.normal(0, 3.0, img.shape)).astype(np.float32)
+
+
+@settings(deadline=None)
+@given(x=st.floats(8.0, 56.0), y=st.floats(8.0, 40.0), seed=st.integers(0, 2**16))
+def test_a_star_at_any_subpixel_position_is_found(x: float, y: float, seed: int) -> None:
+    c = starid.extract_centroids(_star(64, 48, x, y, seed=seed))
+    assert len(c) == 1
+    assert c.xy[0] == pytest.approx([x, y], abs=0.05)
+    assert c.flux[0] == pytest.approx(5000.0, rel=0.1)
+
+
+def test_flipping_flips_and_flat_gives_nothing() -> None:
+    img = _star(64, 48, 20.3, 30.7)
+    a = starid.extract_centroids(img).xy[0]
+    b = starid.extract_centroids(img[:, ::-1]).xy[0]
+    assert a[0] + b[0] == pytest.approx(64.0, abs=1e-3) and a[1] == pytest.approx(b[1], abs=1e-3)
+    assert len(starid.extract_centroids(np.full((40, 50), 7.0))) == 0
+    rng = np.random.default_rng(1)
+    noise = rng.normal(100.0, 5.0, (1000, 1000)).astype(np.float32)
+    assert len(starid.extract_centroids(noise)) <= 1  # at most 1 false detection per megapixel
+
+
+def test_hot_pixels_and_trails_are_not_stars() -> None:
+    img = _star(100, 80, 40.2, 30.6)
+    img[10, 70] += 4000.0  # hot pixel
+    img[60, 10:90] += 300.0  # a trail
+    c = starid.extract_centroids(img)
+    assert len(c) == 1 and c.xy[0] == pytest.approx([40.2, 30.6], abs=0.05)
+    assert c.hot_pixels >= 1 and c.dropped >= 1
+    kept = starid.extract_centroids(img, drop_flagged=False)
+    assert (kept.flags & starid.images.FLAGS["elongated"]).any()
+
+
+def test_dark_frame_and_clipped_background() -> None:
+    dark = np.random.default_rng(2).normal(500.0, 50.0, (48, 64)).astype(np.float32)
+    img = _star(64, 48, 30.4, 20.1) + dark
+    c = starid.extract_centroids(img, dark=dark)
+    assert len(c) == 1 and c.xy[0] == pytest.approx([30.4, 20.1], abs=0.05)
+    clipped = img.copy()
+    clipped[:, :5] = np.nan
+    assert len(starid.extract_centroids(clipped, dark=dark)) == 1
+
+
+def test_simulated_images_are_identified_end_to_end(bundled: starid.Catalog) -> None:
+    for seed in range(5):
+        img, truth = starid.simulate_image(
+            bundled, 12.0, (800, 600), seed=seed, hot_pixels=30, gradient_e=200.0, trail=(20, 500, 780, 420, 500)
+        )
+        assert img.shape == (600, 800) and img.dtype == np.float32
+        r = starid.identify_image(img, bundled, 12.0)
+        assert r.ok, seed
+        ids = r.identification.ids
+        # Every named spot lies on a true star of that id (a star cut by the border is biased).
+        border = starid.images.FLAGS["border"]
+        for (x, y), cid, fl in zip(r.centroids.xy, ids, r.centroids.flags):
+            if cid >= 0:
+                k = np.flatnonzero(truth.true_ids == cid)
+                assert len(k) == 1 and np.hypot(*(truth.xy[k[0]] - [x, y])) < (2.0 if fl & border else 0.5)
+        assert starid.identify(img, bundled, 12.0).ok
+
+
+def test_image_files(tmp_path: Path, bundled: starid.Catalog) -> None:
+    from PIL import Image
+
+    img, _ = starid.simulate_image(bundled, 12.0, (640, 480), seed=7)
+    png16 = tmp_path / "f16.png"
+    Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(png16)
+    png8 = tmp_path / "f8.png"
+    Image.fromarray(np.clip(img / 256, 0, 255).astype(np.uint8)).convert("RGB").save(png8)
+    tif = tmp_path / "f.tif"
+    Image.fromarray(img).save(tif)
+    from astropy.io import fits
+
+    fit = tmp_path / "f.fits"
+    fits.PrimaryHDU(img).writeto(fit)
+    for p in (png16, tif, fit):
+        assert starid.read_image(p).shape == (480, 640)
+        assert starid.identify(str(p), bundled, 12.0).ok, p
+    assert starid.read_image(png8).shape == (480, 640)
+    with pytest.raises(FileNotFoundError):
+        starid.read_image(tmp_path / "absent.png")
+    with pytest.raises(starid.InvalidInputError, match="unsupported"):
+        (tmp_path / "x.bin").write_bytes(b"123")
+        starid.read_image(tmp_path / "x.bin")
+    with pytest.raises(starid.InvalidInputError, match="not a readable"):
+        (tmp_path / "broken.png").write_bytes(b"not a png")
+        starid.read_image(tmp_path / "broken.png")
+    with pytest.raises(starid.InvalidInputError, match="2-D"):
+        starid.extract_centroids(np.zeros(100))
+    with pytest.raises(starid.InvalidInputError, match="finite"):
+        starid.extract_centroids(np.full((20, 20), np.nan))
+    with pytest.raises(starid.InvalidInputError, match="image_size"):
+        starid.identify_image(img, bundled, 12.0, image_size=(100, 100))
