@@ -46,6 +46,7 @@ def crb(x: float, y: float, flux: float, n: int = 32) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--stars", type=int, default=2000)
+    ap.add_argument("--images", type=int, default=200, help="simulated images per lens, end to end")
     args = ap.parse_args()
     rng = np.random.default_rng(1)
     print("| SNR | stars | found | RMS error per axis | Cramér–Rao bound | ratio |")
@@ -81,6 +82,33 @@ def main() -> None:
         starid.extract_centroids(img16)
         times.append(time.perf_counter() - t)
     print(f"2-megapixel 16-bit frame: median {np.median(times) * 1e3:.1f} ms per extraction (one core)")
+    # End to end on simulated images: extract, then identify (field of view given).
+    cat = starid.Catalog.default()
+    print("| lens | images | identified | wrong attitudes | median end to end | p99 |")
+    print("|---|---|---|---|---|---|")
+    for fov, size in ((12.0, (1600, 1200)), (20.0, (1024, 1024))):
+        ok = wrong = 0
+        t_all = []
+        for seed in range(args.images):
+            r = np.random.default_rng(seed)
+            x0, y0 = r.random() * size[0], r.random() * size[1]
+            img, truth = starid.simulate_image(
+                cat, fov, size, seed=seed, mag_limit=6.5, hot_pixels=100, gradient_e=300.0,
+                trail=(x0, y0, r.random() * size[0], r.random() * size[1], 400.0),
+            )
+            img16 = np.clip(img, 0, 65535).astype(np.uint16)
+            t = time.perf_counter()
+            res = starid.identify_image(img16, cat, fov).identification
+            t_all.append(time.perf_counter() - t)
+            if res.ok:
+                c = math.cos(math.radians(res.dec_deg)) * math.cos(math.radians(truth.dec_deg)) * math.cos(
+                    math.radians(res.ra_deg - truth.ra_deg)) + math.sin(math.radians(res.dec_deg)) * math.sin(math.radians(truth.dec_deg))
+                if math.degrees(math.acos(min(1.0, c))) < 0.1:
+                    ok += 1
+                else:
+                    wrong += 1
+        print(f"| {fov:g}°, {size[0]}x{size[1]} px, stars to 6.5, 100 hot pixels, gradient, trail | {args.images} | "
+              f"{100 * ok / args.images:.1f} % | {wrong} | {np.median(t_all) * 1e3:.1f} ms | {np.percentile(t_all, 99) * 1e3:.1f} ms |")
 
 
 if __name__ == "__main__":
