@@ -110,3 +110,21 @@ def test_catalogue_travels_as_arrays(bundled: starid.Catalog) -> None:
     assert len(pickle.dumps(bundled)) < 45 * len(bundled) + 2000
     with pytest.raises(starid.InvalidInputError, match="Dask bag"):
         sd.identify_frames([(0, np.zeros((0, 2)))], bundled, **CAM)  # type: ignore[arg-type]
+
+
+def test_image_files_on_the_cluster(client: distributed.Client, bundled: starid.Catalog, tmp_path: Path) -> None:
+    from PIL import Image
+
+    paths = []
+    for seed in range(6):
+        img, _ = starid.simulate_image(bundled, 12.0, (640, 480), seed=seed, hot_pixels=10)
+        p = tmp_path / f"img{seed}.png"
+        Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(p)
+        paths.append(str(p))
+    paths.append(str(tmp_path / "missing.png"))
+    df = sd.identify_images(paths, bundled, 12.0, partition_size=3).compute().set_index("frame")
+    assert len(df) == 7
+    for p in paths[:6]:
+        want = starid.identify(p, bundled, 12.0)
+        assert df.loc[p].ok and df.loc[p].n_matched == want.n_matched
+    assert df.loc[paths[6]].status == "invalid_input" and "missing.png" in df.loc[paths[6]].message

@@ -110,3 +110,19 @@ def test_image_files(tmp_path: Path, bundled: starid.Catalog) -> None:
         starid.extract_centroids(np.full((20, 20), np.nan))
     with pytest.raises(starid.InvalidInputError, match="image_size"):
         starid.identify_image(img, bundled, 12.0, image_size=(100, 100))
+
+
+def test_cli_identifies_images(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from PIL import Image
+
+    from starid.cli import main
+
+    img, truth = starid.simulate_image(None, 12.0, (640, 480), seed=9, hot_pixels=5)
+    p = tmp_path / "frame.png"
+    Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(p)
+    assert main(["identify", str(p), "--fov-deg", "12", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["ok"] and abs(out["ra_deg"] - truth.ra_deg) < 0.1
+    assert main(["identify", str(tmp_path / "absent.png"), "--fov-deg", "12"]) == 2

@@ -43,7 +43,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     ident = sub.add_parser("identify", help="identify the stars of centroid files")
-    ident.add_argument("files", nargs="*", type=Path, help="star lists: CSV or text, columns label,x,y[,mag] or x,y")
+    ident.add_argument("files", nargs="*", type=Path,
+                       help="star lists (CSV or text, columns label,x,y[,mag] or x,y) or images (PNG, JPEG, TIFF, FITS)")
     ident.add_argument("--example", action="store_true", help="identify the bundled example frame (12 deg, 512x512)")
     ident.add_argument("--fov-deg", type=float, help="full field of view across the image width, degrees (omit if unknown)")
     ident.add_argument("--fov-range-deg", type=float, nargs=2, metavar=("LO", "HI"),
@@ -163,6 +164,13 @@ def _progress(done: int, total: int, identified: int, elapsed_s: float) -> None:
     )
 
 
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
+
+
+def _is_image_file(path: Path) -> bool:
+    return path.name.lower().endswith(_IMAGE_SUFFIXES)
+
+
 def _identify(args: argparse.Namespace) -> int:
     files: list[Path] = list(args.files)
     fov, size = args.fov_deg, args.size
@@ -173,8 +181,9 @@ def _identify(args: argparse.Namespace) -> int:
     if not files:
         print("starid identify: give star-list files or --example", file=sys.stderr)
         return 2
-    if size is None:
-        print("starid identify: --size is required", file=sys.stderr)
+    images = {k for k, f in enumerate(files) if _is_image_file(f)}
+    if size is None and len(images) < len(files):
+        print("starid identify: --size is required for star lists (images give their own)", file=sys.stderr)
         return 2
     fov_range = None if args.fov_range_deg is None else tuple(sorted(args.fov_range_deg))
     catalog = resolve_catalog(args.catalog)
@@ -185,13 +194,23 @@ def _identify(args: argparse.Namespace) -> int:
     # A file that cannot be read is reported (one line naming it) and the others go on.
     star_lists: list[Any] = []
     unreadable: dict[int, str] = {}
+    sizes: dict[int, tuple[float, float]] = {}
     for k, path in enumerate(files):
         try:
+            if k in images:
+                # An image: its spots become the star list, its size the sensor's.
+                from .images import extract_centroids
+                from .starlist import StarList
+
+                c = extract_centroids(path)
+                sizes[k] = c.image_size
+                star_lists.append(StarList([f"s{i}" for i in range(len(c))], c.xy, c.magnitudes if np.isfinite(c.magnitudes).all() else None))
+                continue
             star_lists.append(read_star_list(path))
         except UnicodeDecodeError as e:
             unreadable[k] = f"{path}: not UTF-8 text ({e.reason} at byte {e.start})"
             star_lists.append(None)
-        except (ValueError, OSError) as e:
+        except (ValueError, OSError, ImportError) as e:
             msg = str(e)
             unreadable[k] = msg if str(path) in msg else f"{path}: {msg}"
             star_lists.append(None)
@@ -203,17 +222,18 @@ def _identify(args: argparse.Namespace) -> int:
             stars.xy,
             catalog=catalog,
             fov_deg=fov,
-            image_size=size,
+            image_size=sizes.get(k, size),
             fov_range_deg=fov_range,
             magnitudes=None if args.no_magnitudes else stars.magnitudes,
             centroid_sigma_px=args.sigma_px,
             max_false_match_prob=args.max_false_prob,
             method=args.method,
-            mag_offset=args.mag_offset,
+            # An image's magnitudes are instrumental: their zero point is unknown.
+            mag_offset=None if k in images else args.mag_offset,
         )
 
     solved: list[Identification] = []
-    if fov is not None and len(files) > 20 and not unreadable:
+    if fov is not None and len(files) > 20 and not unreadable and not images:
         # Many frames of one camera: identify them in batches on every core (Rust threads),
         # with a progress bar between batches.
         for lo in range(0, len(files), BATCH):

@@ -20,6 +20,7 @@ calling: the functions here only build the graph.
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
 from typing import Any, Optional, Union
 
 import numpy as np
@@ -28,7 +29,7 @@ import pandas as pd
 from . import _starid
 from ._catalog import Catalog, resolve_catalog
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, identify_many
+from ._identify import CatalogLike, Identification, identify, identify_many
 
 try:
     import dask.bag as dask_bag
@@ -37,7 +38,7 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError("starid.dask needs Dask: pip install 'starid[dask]'") from e
 
-__all__ = ["FRAME_COLUMNS", "SPOT_COLUMNS", "identify_frames"]
+__all__ = ["FRAME_COLUMNS", "SPOT_COLUMNS", "identify_frames", "identify_images"]
 
 #: Columns of the per-frame result.
 FRAME_COLUMNS = {
@@ -218,3 +219,100 @@ def identify_frames(
         mapped: dd.DataFrame = df.map_partitions(part, cat_node, meta=meta, enforce_metadata=False, align_dataframes=False)
         return mapped
     raise InvalidInputError(f"frames must be a Dask bag, a Dask DataFrame or a Parquet path, not {type(frames).__name__}")
+
+
+def _read_any(path: str) -> np.ndarray:
+    """An image from a local path or any fsspec URL (``s3://``, ``gcs://``, ``https://``...)."""
+    from .images import read_image
+
+    if "://" not in path or path.startswith("file://"):
+        return read_image(path[7:] if path.startswith("file://") else path)
+    try:
+        import fsspec  # type: ignore[import-untyped,unused-ignore]
+    except ImportError as e:  # pragma: no cover - fsspec comes with dask
+        raise ImportError("reading image URLs needs fsspec: pip install 'starid[dask]'") from e
+    import tempfile
+
+    suffix = "".join(Path(path.split("?")[0]).suffixes[-2:]) or ".img"
+    with fsspec.open(path, "rb") as src, tempfile.NamedTemporaryFile(suffix=suffix) as tmp:
+        tmp.write(src.read())
+        tmp.flush()
+        return read_image(tmp.name)
+
+
+def _identify_paths(
+    paths: list[str], cat: Catalog, key: str, kwargs: dict[str, Any], extract: dict[str, Any]
+) -> pd.DataFrame:
+    """One partition of image files: read, extract, identify; a file that cannot be read gets
+    status ``invalid_input`` with the reason."""
+    from ._identify import _invalid
+    from .images import extract_centroids
+
+    cat = _worker_catalog(cat, key)
+    results: list[Identification] = []
+    spots: list[int] = []
+    for p in paths:
+        try:
+            c = extract_centroids(_read_any(p), **extract)
+            kw = dict(kwargs)
+            kw.setdefault("mag_offset", None)
+            fov = kw.pop("fov_deg", None)
+            mags = c.magnitudes if np.isfinite(c.magnitudes).all() else None
+            results.append(identify(c.xy, cat, fov, c.image_size, magnitudes=mags, **kw))
+            spots.append(len(c))
+        except (ValueError, OSError, ImportError) as e:
+            results.append(_invalid(f"{p}: {e}", 0))
+            spots.append(0)
+    cols = _starid.result_columns(results, False)
+    q = cols.pop("quaternion")
+    table = pd.DataFrame(
+        {
+            "frame": np.asarray(paths, dtype=object),
+            **{k: cols[k] for k in ("status", "ok", "method", "ra_deg", "dec_deg", "roll_deg")},
+            "q_w": q[:, 0],
+            "q_x": q[:, 1],
+            "q_y": q[:, 2],
+            "q_z": q[:, 3],
+            **{k: cols[k] for k in ("mirrored", "fov_deg", "focal_px")},
+            "n_spots": np.asarray(spots, dtype=np.int64),
+            **{k: cols[k] for k in ("n_matched", "false_match_probability", "time_s", "message")},
+        }
+    )
+    return table.astype(dict(FRAME_COLUMNS, frame="str"))
+
+
+def identify_images(
+    paths: Union[list[str], "dask_bag.Bag"],
+    catalog: CatalogLike = None,
+    fov_deg: Optional[float] = None,
+    *,
+    partition_size: int = 16,
+    extract: Optional[dict[str, Any]] = None,
+    **kwargs: Any,
+) -> "dd.DataFrame":
+    """Identify image files (local paths or any fsspec URL) on Dask: one row per image
+    (:data:`FRAME_COLUMNS`, ``frame`` the path), read, extracted and identified on the workers.
+
+    ``paths`` is a list (cut into partitions of ``partition_size`` images) or a Dask bag of
+    paths; ``extract`` holds :func:`starid.extract_centroids` settings; other arguments as
+    :func:`starid.identify` (the image size comes from each image). A file that cannot be read
+    gets status ``invalid_input``, naming it.
+    """
+    cat = resolve_catalog(catalog)
+    key = _fingerprint(cat)
+    cat_node = delayed(cat, pure=True)
+    kw = dict(kwargs, fov_deg=fov_deg)
+    if isinstance(paths, dask_bag.Bag):
+        bag = paths
+    else:
+        if not isinstance(partition_size, int) or partition_size < 1:
+            raise InvalidInputError(f"partition_size must be a positive integer, got {partition_size!r}")
+        items = [str(p) for p in paths]
+        if not items:
+            raise InvalidInputError("no image paths given")
+        bag = dask_bag.from_sequence(items, partition_size=partition_size)  # type: ignore[no-untyped-call]
+    meta = pd.DataFrame({k: pd.Series(dtype=v) for k, v in dict(FRAME_COLUMNS, frame="str").items()})
+    run = delayed(_identify_paths, pure=True)
+    parts = [run(p, cat_node, key, kw, dict(extract or {})) for p in bag.to_delayed()]  # type: ignore[no-untyped-call]
+    result: dd.DataFrame = dd.from_delayed(parts, meta=meta, verify_meta=False)
+    return result
