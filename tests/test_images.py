@@ -126,3 +126,27 @@ def test_cli_identifies_images(tmp_path: Path, capsys: pytest.CaptureFixture[str
     out = json.loads(capsys.readouterr().out)
     assert out["ok"] and abs(out["ra_deg"] - truth.ra_deg) < 0.1
     assert main(["identify", str(tmp_path / "absent.png"), "--fov-deg", "12"]) == 2
+
+
+@pytest.mark.parametrize("mirrored", [False, True])
+def test_wcs_round_trip(bundled: starid.Catalog, mirrored: bool) -> None:
+    import starid.wcs as sw
+
+    for seed in range(4):
+        f = starid.simulate(bundled, 12.0, (640, 480), seed=seed, noise_px=0.2, mirrored=mirrored)
+        res = starid.identify(f.xy, bundled, 12.0, (640, 480), brightness_order=False)
+        assert res.ok and res.mirrored == mirrored
+        w = sw.wcs(res, (640, 480))
+        m = res.ids >= 0
+        rows = bundled._native.rows_of(res.ids[m].astype(np.int64))
+        # FITS pixels are 1-based at pixel centres: X = x + 0.5.
+        ra, dec = w.all_pix2world(f.xy[m, 0] + 0.5, f.xy[m, 1] + 0.5, 1)
+        c = np.sin(np.radians(dec)) * np.sin(np.radians(bundled.dec_deg[rows])) + np.cos(np.radians(dec)) * np.cos(
+            np.radians(bundled.dec_deg[rows])
+        ) * np.cos(np.radians(ra - bundled.ra_deg[rows]))
+        sep = np.degrees(np.arccos(np.clip(c, -1, 1))) * 3600
+        assert np.allclose(sep, res.residuals_arcsec[m], atol=1e-3)
+        h = sw.wcs_header(res, (640, 480))
+        assert h["CRPIX1"] == 320.5 and h["CRPIX2"] == 240.5
+    with pytest.raises(starid.InvalidInputError, match="no solution"):
+        sw.wcs_header(starid.identify(np.zeros((0, 2)), bundled, 12.0, (640, 480)), (640, 480))

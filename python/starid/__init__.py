@@ -12,7 +12,7 @@ The heavy lifting (k-vector pair index, Pyramid search, verification, attitude) 
 the Rust core; see ARCHITECTURE.md.
 """
 
-from . import guide, pointing, tracking
+from . import guide, pointing, tracking, wcs
 from ._catalog import Catalog
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._identify import (
@@ -65,4 +65,5 @@ __all__ = [
     "simulate_sequence",
     "track",
     "tracking",
+    "wcs",
 ]

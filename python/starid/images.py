@@ -77,6 +77,18 @@ class ImageIdentification:
         """Whether the image was identified."""
         return bool(self.identification.ok)
 
+    def wcs_header(self) -> dict[str, Any]:
+        """The FITS WCS keywords (TAN) of the identified image (see :mod:`starid.wcs`)."""
+        from .wcs import wcs_header
+
+        return wcs_header(self.identification, self.centroids.image_size)
+
+    def wcs(self) -> Any:
+        """The ``astropy.wcs.WCS`` of the identified image (``pip install starid[fits]``)."""
+        from .wcs import wcs
+
+        return wcs(self.identification, self.centroids.image_size)
+
 
 def read_image(path: PathLike) -> npt.NDArray[np.float32]:
     """Read an image file as a 2-D float32 array (H, W): PNG, JPEG, TIFF (8 or 16 bit; colour
