@@ -150,3 +150,23 @@ def test_wcs_round_trip(bundled: starid.Catalog, mirrored: bool) -> None:
         assert h["CRPIX1"] == 320.5 and h["CRPIX2"] == 240.5
     with pytest.raises(starid.InvalidInputError, match="no solution"):
         sw.wcs_header(starid.identify(np.zeros((0, 2)), bundled, 12.0, (640, 480)), (640, 480))
+
+
+# A header-only WCS file (as solve-field writes) has no image axes, which astropy remarks on.
+@pytest.mark.filterwarnings("ignore::astropy.wcs.FITSFixedWarning")
+def test_cli_writes_a_wcs_file(tmp_path: Path, bundled: starid.Catalog) -> None:
+    from astropy.io import fits
+    from astropy.wcs import WCS
+    from PIL import Image
+
+    from starid.cli import main
+
+    img, truth = starid.simulate_image(bundled, 12.0, (640, 480), seed=4)
+    p = tmp_path / "frame.png"
+    Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(p)
+    out = tmp_path / "frame.wcs"
+    assert main(["identify", str(p), "--fov-deg", "12", "--wcs", str(out)]) == 0
+    w = WCS(fits.getheader(out))
+    ra, dec = w.all_pix2world([320.5], [240.5], 1)
+    assert ra[0] == pytest.approx(truth.ra_deg, abs=0.05) and dec[0] == pytest.approx(truth.dec_deg, abs=0.05)
+    assert main(["identify", str(p), str(p), "--fov-deg", "12", "--wcs", str(out)]) == 2

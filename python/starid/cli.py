@@ -58,6 +58,8 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--mag-offset", type=_mag_offset, default=0.0,
                        help="instrument minus catalogue magnitude (default 0), or 'unknown'")
     ident.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    ident.add_argument("--wcs", type=Path, metavar="OUT",
+                       help="write the FITS WCS header of the solution here, as solve-field does (one file; needs astropy)")
 
     sim = sub.add_parser("simulate", help="write a simulated star list (label,x,y,mag) and print its truth")
     sim.add_argument("output", type=Path)
@@ -164,6 +166,19 @@ def _progress(done: int, total: int, identified: int, elapsed_s: float) -> None:
     )
 
 
+def _write_wcs(out: Path, res: Identification, size: Optional[tuple[float, float]]) -> None:
+    """The solution's WCS as a FITS header file (a header-only primary HDU, like solve-field's)."""
+    try:
+        from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
+    except ImportError as e:
+        raise ImportError("--wcs needs astropy: pip install 'starid[fits]'") from e
+    from .wcs import wcs_header
+
+    if size is None:
+        raise ValueError("--wcs needs the image size")
+    fits.PrimaryHDU(header=fits.Header(wcs_header(res, size))).writeto(out, overwrite=True)
+
+
 _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
 
 
@@ -180,6 +195,9 @@ def _identify(args: argparse.Namespace) -> int:
         size = EXAMPLE_SIZE if size is None else size
     if not files:
         print("starid identify: give star-list files or --example", file=sys.stderr)
+        return 2
+    if args.wcs is not None and len(files) != 1:
+        print("starid identify: --wcs takes one file", file=sys.stderr)
         return 2
     images = {k for k, f in enumerate(files) if _is_image_file(f)}
     if size is None and len(images) < len(files):
@@ -275,6 +293,8 @@ def _identify(args: argparse.Namespace) -> int:
             if show_progress:
                 _progress(n + 1, len(files), n + 1 - failures - (not res.ok), time.perf_counter() - t0)
         failures += not res.ok
+        if args.wcs is not None and res.ok:
+            _write_wcs(args.wcs, res, sizes.get(n, size))
         if args.json:
             d = res.to_dict()
             d["file"] = str(path)
