@@ -29,7 +29,7 @@ import pandas as pd
 from . import _starid
 from ._catalog import Catalog, resolve_catalog
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Identification, identify, identify_many
+from ._identify import CatalogLike, Identification, identify_many
 
 try:
     import dask.bag as dask_bag
@@ -104,10 +104,15 @@ def _identify_records(
             }
         )
         return table.astype(dict(SPOT_COLUMNS, frame=frame_dtype))
-    q = cols.pop("quaternion")
+    return _frame_table(key_arr.to_numpy(), cols, frame_dtype)
+
+
+def _frame_table(keys: Any, cols: dict[str, Any], frame_dtype: str) -> pd.DataFrame:
+    """The per-frame table (:data:`FRAME_COLUMNS`) of ``result_columns`` output."""
+    q = cols["quaternion"]
     table = pd.DataFrame(
         {
-            "frame": key_arr.to_numpy(),
+            "frame": keys,
             **{k: cols[k] for k in ("status", "ok", "method", "ra_deg", "dec_deg", "roll_deg")},
             "q_w": q[:, 0],
             "q_x": q[:, 1],
@@ -246,39 +251,18 @@ def _identify_paths(
     """One partition of image files: read, extract, identify; a file that cannot be read gets
     status ``invalid_input`` with the reason."""
     from ._identify import _invalid
-    from .images import extract_centroids
+    from .images import identify_image
 
     cat = _worker_catalog(cat, key)
+    kw = dict(kwargs)
+    fov = kw.pop("fov_deg", None)
     results: list[Identification] = []
-    spots: list[int] = []
     for p in paths:
         try:
-            c = extract_centroids(_read_any(p), **extract)
-            kw = dict(kwargs)
-            kw.setdefault("mag_offset", None)
-            fov = kw.pop("fov_deg", None)
-            mags = c.magnitudes if np.isfinite(c.magnitudes).all() else None
-            results.append(identify(c.xy, cat, fov, c.image_size, magnitudes=mags, **kw))
-            spots.append(len(c))
+            results.append(identify_image(_read_any(p), cat, fov, extract=extract, **kw).identification)
         except (ValueError, OSError, ImportError) as e:
             results.append(_invalid(f"{p}: {e}", 0))
-            spots.append(0)
-    cols = _starid.result_columns(results, False)
-    q = cols.pop("quaternion")
-    table = pd.DataFrame(
-        {
-            "frame": np.asarray(paths, dtype=object),
-            **{k: cols[k] for k in ("status", "ok", "method", "ra_deg", "dec_deg", "roll_deg")},
-            "q_w": q[:, 0],
-            "q_x": q[:, 1],
-            "q_y": q[:, 2],
-            "q_z": q[:, 3],
-            **{k: cols[k] for k in ("mirrored", "fov_deg", "focal_px")},
-            "n_spots": np.asarray(spots, dtype=np.int64),
-            **{k: cols[k] for k in ("n_matched", "false_match_probability", "time_s", "message")},
-        }
-    )
-    return table.astype(dict(FRAME_COLUMNS, frame="str"))
+    return _frame_table(np.asarray(paths, dtype=object), _starid.result_columns(results, False), "str")
 
 
 def identify_images(

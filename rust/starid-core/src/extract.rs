@@ -367,7 +367,8 @@ fn background(img: &[f32], width: usize, height: usize, block: usize) -> Vec<f32
     let along_x = |y: usize| -> Vec<f32> {
         xs.iter()
             .map(|&(x0, x1, tx)| {
-                (f64::from(grid[y * bw + x0]) * (1.0 - tx) + f64::from(grid[y * bw + x1]) * tx) as f32
+                (f64::from(grid[y * bw + x0]) * (1.0 - tx) + f64::from(grid[y * bw + x1]) * tx)
+                    as f32
             })
             .collect()
     };

@@ -221,28 +221,16 @@ impl Solver {
             min_matches: 2,
             ..config.clone()
         };
-        let mut search = Search {
-            solver: self,
-            pairs: &self.pairs,
+        let mut search = Search::new(
+            self,
             camera,
-            config: &cfg,
-            obs: [&obs, &obs_mirrored],
+            &cfg,
+            [&obs, &obs_mirrored],
             magnitudes,
-            gate: None,
-            gen_gate: None,
-            gate_fraction: 1.0,
-            pass_pairs_limit: usize::MAX,
-            tri_pos: [0; 3],
-            gated_work: 0,
-            order: &order,
-            hypotheses: 0,
-            pairs_visited: 0,
-            deadline: None,
-            scratch: SCRATCH.with(|c| c.take()),
-            stride: 0,
-            method: Method::Auto,
-            hint: None,
-        };
+            &order,
+            SCRATCH.with(|c| c.take()),
+        );
+        search.method = Method::Auto;
         if let Some(w) = windows.as_deref() {
             search.gate = Some(w);
             search.gate_fraction = self.window_fraction(w);

@@ -764,28 +764,17 @@ impl Solver {
         let mut scratch = SCRATCH.with(|c| c.take());
         scratch.angles.clear();
         scratch.angles.resize(stride * stride, f64::NAN);
-        let mut search = Search {
-            solver: self,
-            pairs: &self.pairs,
+        let mut search = Search::new(
+            self,
             camera,
             config,
-            obs: [&obs, &obs_mirrored],
+            [&obs, &obs_mirrored],
             magnitudes,
-            gate: None,
-            gen_gate: None,
-            gate_fraction: 1.0,
-            pass_pairs_limit: usize::MAX,
-            tri_pos: [0; 3],
-            gated_work: 0,
-            order: &order,
-            hypotheses: 0,
-            pairs_visited: 0,
-            deadline: config.timeout.map(|t| start + t),
+            &order,
             scratch,
-            stride,
-            method: config.method,
-            hint: None,
-        };
+        );
+        search.stride = stride;
+        search.deadline = config.timeout.map(|t| start + t);
         let mut status = Status::NoMatch;
         for pass in passes {
             search.pairs = if pass.bright {
@@ -1299,6 +1288,43 @@ struct Search<'a> {
     /// Set in hinted (tracking) identification: what the false-match bound counts instead of
     /// a search of the whole sky.
     hint: Option<hinted::HintPrior>,
+}
+
+impl<'a> Search<'a> {
+    /// A search over the whole pair index with no gate, hint or deadline: the passes set
+    /// what they need.
+    fn new(
+        solver: &'a Solver,
+        camera: &'a Camera,
+        config: &'a IdentifyConfig,
+        obs: [&'a [Vector3<f64>]; 2],
+        magnitudes: Option<&'a [f64]>,
+        order: &'a [usize],
+        scratch: Scratch,
+    ) -> Self {
+        Self {
+            solver,
+            pairs: &solver.pairs,
+            camera,
+            config,
+            obs,
+            magnitudes,
+            gate: None,
+            gen_gate: None,
+            gate_fraction: 1.0,
+            pass_pairs_limit: usize::MAX,
+            tri_pos: [0; 3],
+            gated_work: 0,
+            order,
+            hypotheses: 0,
+            pairs_visited: 0,
+            deadline: None,
+            scratch,
+            stride: 0,
+            method: config.method,
+            hint: None,
+        }
+    }
 }
 
 /// A verified solution.
