@@ -142,3 +142,14 @@ def test_identify_many_with_hints(bundled: starid.Catalog) -> None:
     assert all(r.ok and _wrong(r.ids, f.true_ids) == 0 for r, f in zip(res, frames))
     one = starid.identify_many([frames[0].xy] * 3, bundled, attitude_hint=frames[0].quaternion, **CAM)
     assert all(r.hinted for r in one)
+
+
+def test_counts_out_of_range_are_typed_errors() -> None:
+    for call in (
+        lambda: starid.simulate_sequence(frames=3, false_stars=-1),
+        lambda: starid.simulate_sequence(frames=2.5),
+        lambda: starid.simulate_image(hot_pixels=-1),
+        lambda: starid.extract_centroids(np.zeros((20, 20)), max_spots=-1),
+    ):
+        with pytest.raises(starid.InvalidInputError, match="whole number"):
+            call()

@@ -54,6 +54,37 @@ class Frame:
         return int(np.count_nonzero(self.true_ids >= 0))
 
 
+def _frame(d: dict[str, Any], fov_deg: float, image_size: tuple[float, float], seed: int, cls: Any = None, **extra: Any) -> Any:
+    """A :class:`Frame` (or ``cls``) from the native simulator's dict and the camera."""
+    return (cls or Frame)(
+        xy=d["xy"],
+        magnitudes=d["magnitudes"],
+        true_ids=d["true_ids"],
+        ra_deg=d["ra_deg"],
+        dec_deg=d["dec_deg"],
+        roll_deg=d["roll_deg"],
+        rotation_matrix=d["rotation_matrix"],
+        quaternion=d["quaternion"],
+        mirrored=d["mirrored"],
+        fov_deg=float(fov_deg),
+        image_size=(float(image_size[0]), float(image_size[1])),
+        seed=int(seed),
+        **extra,
+    )
+
+
+def _whole(name: str, value: Any, limit: int = 2**63 - 1) -> int:
+    """A non-negative whole number (an int, or a float with an integral value) up to ``limit``,
+    or an InvalidInputError naming it."""
+    try:
+        v = int(value)
+    except (TypeError, ValueError, OverflowError) as e:
+        raise InvalidInputError(f"{name} must be a whole number, got {value!r}") from e
+    if isinstance(value, bool) or v != value or not 0 <= v <= limit:
+        raise InvalidInputError(f"{name} must be a whole number in [0, {limit}], got {value!r}")
+    return v
+
+
 _SIZES: dict[Any, tuple[float, float]] = {}
 _CONFIGS: dict[tuple[Any, ...], Any] = {}
 
@@ -633,20 +664,8 @@ def simulate(
         bool(mirrored),
         float(radial_k1),
     )
-    return Frame(
-        xy=d["xy"],
-        magnitudes=d["magnitudes"],
-        true_ids=d["true_ids"],
-        ra_deg=d["ra_deg"],
-        dec_deg=d["dec_deg"],
-        roll_deg=d["roll_deg"],
-        rotation_matrix=d["rotation_matrix"],
-        quaternion=d["quaternion"],
-        mirrored=d["mirrored"],
-        fov_deg=fov,
-        image_size=(w, h),
-        seed=seed,
-    )
+    frame: Frame = _frame(d, fov, (w, h), seed)
+    return frame
 
 
 def simulate_scene(family: str, catalog: CatalogLike = None, *, seed: Optional[int] = None) -> Frame:
@@ -675,17 +694,5 @@ def simulate_scene(family: str, catalog: CatalogLike = None, *, seed: Optional[i
     if not 0 <= seed < 2**64:
         raise InvalidInputError(f"seed must be in [0, 2**64), got {seed}")
     d = _starid.simulate_scene(cat._native, family.upper(), seed)
-    return Frame(
-        xy=d["xy"],
-        magnitudes=d["magnitudes"],
-        true_ids=d["true_ids"],
-        ra_deg=d["ra_deg"],
-        dec_deg=d["dec_deg"],
-        roll_deg=d["roll_deg"],
-        rotation_matrix=d["rotation_matrix"],
-        quaternion=d["quaternion"],
-        mirrored=d["mirrored"],
-        fov_deg=float(d["fov_deg"]),
-        image_size=(float(d["width_px"]), float(d["height_px"])),
-        seed=seed,
-    )
+    frame: Frame = _frame(d, d["fov_deg"], (d["width_px"], d["height_px"]), seed)
+    return frame

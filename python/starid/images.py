@@ -22,7 +22,7 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import resolve_catalog
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Frame, Identification, _camera
+from ._identify import CatalogLike, Frame, Identification, _camera, _frame, _whole
 
 __all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
 
@@ -199,9 +199,9 @@ def extract_centroids(
     raw: dict[str, Any] = _starid.extract_centroids(
         np.ascontiguousarray(img, dtype=np.float32),
         float(threshold_sigma),
-        int(background_block),
-        int(min_pixels),
-        int(max_spots),
+        _whole("background_block", background_block),
+        _whole("min_pixels", min_pixels),
+        _whole("max_spots", max_spots),
         None if saturation is None else float(saturation),
         float(max_elongation),
         bool(drop_flagged),
@@ -288,16 +288,14 @@ def simulate_image(
     cam = _camera(None, fov_deg, image_size)
     tr = None if trail is None else ((float(trail[0]), float(trail[1]), float(trail[2]), float(trail[3])), float(trail[4]))
     img, d = _starid.simulate_image(
-        cat._native, cam, int(seed), None if mag_limit is None else float(mag_limit), int(false_stars),
+        cat._native, cam, _whole("seed", seed, 2**64 - 1), None if mag_limit is None else float(mag_limit),
+        _whole("false_stars", false_stars),
         float(psf_sigma_px), float(zero_point_e), float(background_e), float(gradient_e), float(read_noise_e),
-        int(hot_pixels), float(hot_pixel_e), tr, float(full_well_e), float(gain_e_per_dn), int(bits),
+        _whole("hot_pixels", hot_pixels), float(hot_pixel_e), tr, float(full_well_e), float(gain_e_per_dn),
+        _whole("bits", bits, 64),
     )
     w, h = cam.image_size
-    frame = Frame(
-        xy=d["xy"], magnitudes=d["magnitudes"], true_ids=d["true_ids"], ra_deg=d["ra_deg"], dec_deg=d["dec_deg"],
-        roll_deg=d["roll_deg"], rotation_matrix=d["rotation_matrix"], quaternion=d["quaternion"],
-        mirrored=d["mirrored"], fov_deg=float(cam.fov_deg), image_size=(w, h), seed=int(seed),
-    )
+    frame: Frame = _frame(d, cam.fov_deg, (w, h), seed)
     return img, frame
 
 

@@ -27,7 +27,7 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import resolve_catalog
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Frame, Identification, _camera, _config, _magnitudes, _xy
+from ._identify import CatalogLike, Frame, Identification, _camera, _config, _frame, _magnitudes, _whole, _xy
 
 __all__ = ["SequenceFrame", "TrackStep", "Tracker", "simulate_sequence", "track"]
 
@@ -224,41 +224,25 @@ def simulate_sequence(
     """
     cat = resolve_catalog(catalog)
     cam = _camera(None, fov_deg, image_size)
-    if not isinstance(frames, (int, np.integer)) or frames < 0:
-        raise InvalidInputError(f"frames must be a non-negative integer, got {frames!r}")
     raw = _starid.simulate_sequence(
         cat._native,
         cam,
-        int(frames),
-        int(seed),
+        _whole("frames", frames),
+        _whole("seed", seed, 2**64 - 1),
         float(frame_rate_hz),
         float(rate_deg_s),
         float(jitter_deg),
         float(exposure_s),
-        None if blank is None else (int(blank[0]), int(blank[1])),
+        None if blank is None else (_whole("blank start", blank[0]), _whole("blank stop", blank[1])),
         None if mag_limit is None else float(mag_limit),
         float(noise_px),
         float(mag_noise),
-        int(false_stars),
-        None if false_stars_max is None else int(false_stars_max),
+        _whole("false_stars", false_stars),
+        None if false_stars_max is None else _whole("false_stars_max", false_stars_max),
         True,
     )
     w, h = cam.image_size
     return [
-        SequenceFrame(
-            xy=d["xy"],
-            magnitudes=d["magnitudes"],
-            true_ids=d["true_ids"],
-            ra_deg=d["ra_deg"],
-            dec_deg=d["dec_deg"],
-            roll_deg=d["roll_deg"],
-            rotation_matrix=d["rotation_matrix"],
-            quaternion=d["quaternion"],
-            mirrored=d["mirrored"],
-            fov_deg=float(cam.fov_deg),
-            image_size=(w, h),
-            seed=int(seed),
-            t_s=float(d["t_s"]),
-        )
+        _frame(d, cam.fov_deg, (w, h), seed, SequenceFrame, t_s=float(d["t_s"]))
         for d in raw
     ]
