@@ -273,6 +273,26 @@ class Catalog:
         diag = _camera(None, fov_deg, image_size).diagonal_fov_deg
         return dict(self._native.index_info(diag, bool(magnitude_index)))
 
+    def method_index(self, method: str, fov_deg: float, image_size: tuple[float, float]) -> dict[str, Any]:
+        """The database identification method ``method`` searches for frames of this geometry
+        (built now if needed): ``bytes`` and ``build_time_s``.
+
+        Pyramid, voting, ``angular-distance`` and ``distance-vote`` search the pair index (the
+        k-vector); ``star-line-angle`` and ``angle-sum`` their neighbour tables, and
+        ``radial-vote`` its ring counts (see ``starid methods``).
+
+        Examples
+        --------
+        >>> import starid
+        >>> cat = starid.Catalog.default()
+        >>> cat.method_index("radial-vote", 12.0, (512, 512))["bytes"] < cat.method_index("angular-distance", 12.0, (512, 512))["bytes"]
+        True
+        """
+        from ._identify import _camera
+
+        diag = _camera(None, fov_deg, image_size).diagonal_fov_deg
+        return dict(self._native.method_index(str(method), diag))
+
     def to_csv(self, path: PathLike) -> None:
         """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag``."""
         with open(os.fspath(path), "w", encoding="utf-8", newline="") as f:

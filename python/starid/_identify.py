@@ -577,7 +577,7 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message, False)
+    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message, (False, False))
     return Identification._from_state(state)
 
 

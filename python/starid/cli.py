@@ -54,7 +54,9 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--sigma-px", type=float, help="centroid noise, 1 sigma in pixels (default: adaptive)")
     ident.add_argument("--max-false-prob", type=float, default=1e-3, help="largest accepted false-match bound")
     ident.add_argument("--no-magnitudes", action="store_true", help="ignore a magnitude column")
-    ident.add_argument("--method", default="auto", choices=sorted(METHODS), help="how hypotheses are made (see 'starid methods')")
+    ident.add_argument("--method", default="auto", choices=list(METHODS), help="how hypotheses are made (see 'starid methods')")
+    ident.add_argument("--no-verify", action="store_true",
+                       help="research only: print the method's raw answer without the shared verification (ids may be wrong)")
     ident.add_argument("--mag-offset", type=_mag_offset, default=0.0,
                        help="instrument minus catalogue magnitude (default 0), or 'unknown'")
     ident.add_argument("--json", action="store_true", help="print JSON instead of tables")
@@ -246,6 +248,7 @@ def _identify(args: argparse.Namespace) -> int:
             centroid_sigma_px=args.sigma_px,
             max_false_match_prob=args.max_false_prob,
             method=args.method,
+            verify=not args.no_verify,
             # An image's magnitudes are instrumental: their zero point is unknown.
             mag_offset=None if k in images else args.mag_offset,
         )
@@ -266,6 +269,7 @@ def _identify(args: argparse.Namespace) -> int:
                     centroid_sigma_px=args.sigma_px,
                     max_false_match_prob=args.max_false_prob,
                     method=args.method,
+                    verify=not args.no_verify,
                     mag_offset=args.mag_offset,
                 )
             )
@@ -308,8 +312,12 @@ def _identify(args: argparse.Namespace) -> int:
                 print(
                     f"attitude: ra {res.ra_deg:.6f} deg, dec {res.dec_deg:+.6f} deg, roll {res.roll_deg:.5f} deg, "
                     f"mirrored {res.mirrored}\nquaternion [w, x, y, z] (ICRS -> camera): {q}\n"
-                    f"identified {res.n_matched}/{len(res.ids)}, P(false match) <= {res.false_match_probability:.1e}, "
-                    f"noise {res.centroid_sigma_px:.2f} px"
+                    + (
+                        f"identified {res.n_matched}/{len(res.ids)}, P(false match) <= {res.false_match_probability:.1e}, "
+                        f"noise {res.centroid_sigma_px:.2f} px"
+                        if res.verified
+                        else f"named {res.n_matched}/{len(res.ids)} by {res.method}'s raw answer: NOT verified (--no-verify), ids may be wrong"
+                    )
                     + (
                         f"\nfield of view (estimated): {res.fov_deg:.5f} deg, focal length {res.focal_px:.3f} "
                         f"+- {res.focal_sigma_px:.3f} px"
@@ -537,8 +545,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "track":
             return _track(args)
         if args.command == "methods":
+            width = max(map(len, METHODS))
             for name, text in METHODS.items():
-                print(f"{name:<10} {text}")
+                print(f"{name:<{width}}  {text}")
             return 0
         return _catalog_info(args)
     except BrokenPipeError:

@@ -121,6 +121,11 @@ impl Solver {
         }
         let widest = Camera::from_focal_length(f_lo, width_px, height_px)?;
         config.validate()?;
+        if !config.verify {
+            return Err(Error::invalid_input(
+                "verify=false (raw method answers) needs a known field of view: the focal length is fitted to verified matches",
+            ));
+        }
         validate_centroids(centroids, magnitudes, &widest)?;
         if widest.diagonal_fov_rad() > self.pair_index().max_angle_rad() * 1.0001 {
             return Err(Error::invalid_input(format!(

@@ -196,6 +196,25 @@ impl PyCatalog {
         Ok(d)
     }
 
+    /// The database identification method `method` searches for frames whose stars are at most
+    /// `max_angle_deg` apart: its memory and build time.
+    fn method_index<'py>(
+        &self,
+        py: Python<'py>,
+        method: &str,
+        max_angle_deg: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let m = starid_core::Method::from_name(method).map_err(PyStaridError)?;
+        let s = self.solver(py, max_angle_deg.to_radians())?;
+        let solver = s.clone();
+        let (bytes, time) = py.detach(move || solver.method_database(m));
+        let d = PyDict::new(py);
+        d.set_item("method", m.name())?;
+        d.set_item("bytes", bytes)?;
+        d.set_item("build_time_s", time.as_secs_f64())?;
+        Ok(d)
+    }
+
     /// The row of each id (the join of identified ids with the catalogue).
     fn rows_of<'py>(
         &self,

@@ -68,7 +68,7 @@ pub struct PyIdentifyConfig {
 }
 
 /// Names of the settings, in the constructor's order.
-const SETTINGS: [&str; 12] = [
+const SETTINGS: [&str; 13] = [
     "centroid_sigma_px",
     "max_false_match_prob",
     "min_matches",
@@ -81,6 +81,7 @@ const SETTINGS: [&str; 12] = [
     "mag_offset",
     "mag_tolerance",
     "brightness_order",
+    "verify",
 ];
 
 #[pymethods]
@@ -89,7 +90,7 @@ impl PyIdentifyConfig {
     #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
                         max_search_stars=None, max_hypotheses=None, max_pairs_visited=None,
                         allow_mirrored=None, timeout_s=None, method=None, mag_offset=0.0,
-                        mag_tolerance=None, brightness_order=None))]
+                        mag_tolerance=None, brightness_order=None, verify=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -103,6 +104,7 @@ impl PyIdentifyConfig {
         mag_offset: Option<f64>,
         mag_tolerance: Option<f64>,
         brightness_order: Option<bool>,
+        verify: Option<bool>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
@@ -132,6 +134,7 @@ impl PyIdentifyConfig {
             mag_offset,
             mag_tolerance: mag_tolerance.unwrap_or(d.mag_tolerance),
             brightness_order: brightness_order.unwrap_or(d.brightness_order),
+            verify: verify.unwrap_or(d.verify),
         };
         inner.validate().map_err(PyStaridError)?;
         Ok(Self { inner })
@@ -159,6 +162,7 @@ impl PyIdentifyConfig {
         d.set_item("mag_offset", c.mag_offset)?;
         d.set_item("mag_tolerance", c.mag_tolerance)?;
         d.set_item("brightness_order", c.brightness_order)?;
+        d.set_item("verify", c.verify)?;
         Ok(d)
     }
 
@@ -225,6 +229,12 @@ impl PyIdentifyConfig {
     #[getter]
     fn brightness_order(&self) -> bool {
         self.inner.brightness_order
+    }
+    /// Pass every answer through the shared verification; False (benchmarks and research
+    /// only) returns a method's raw answer.
+    #[getter]
+    fn verify(&self) -> bool {
+        self.inner.verify
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

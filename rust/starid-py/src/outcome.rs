@@ -75,7 +75,11 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 ///     The frame is mirrored (an odd number of reflections). The attitude is then that of the
 ///     image with its x axis reversed (``x -> W - x``).
 /// false_match_probability : float
-///     Bound on the probability that this solution is a false match (1 when not ``ok``).
+///     Bound on the probability that this solution is a false match (1 when not ``ok``, and
+///     for a raw answer).
+/// verified : bool
+///     The answer passed the shared verification. False when not ``ok``, and for a method's
+///     raw answer with ``verify=False`` (benchmarks and research only): such ids may be wrong.
 /// n_matched : int
 ///     Number of identified centroids.
 /// centroid_sigma_px : float
@@ -100,6 +104,7 @@ pub struct PyIdentification {
     method: &'static str,
     message: Option<String>,
     hinted: bool,
+    verified: bool,
     ids: Vec<i64>,
     residuals_arcsec: Vec<f64>,
     rotation: Option<Rotation3<f64>>,
@@ -131,6 +136,7 @@ impl PyIdentification {
             method: id.method.name(),
             message: id.message.clone(),
             hinted: id.hinted,
+            verified: id.verified,
             ids: ids_of(catalog, &id.catalog_index),
             residuals_arcsec: id
                 .residuals_rad
@@ -176,7 +182,7 @@ type State = (
     usize,
     String,
     Option<String>,
-    bool,
+    (bool, bool),
 );
 
 /// NaN as None: JSON has no NaN.
@@ -268,6 +274,12 @@ impl PyIdentification {
     fn hinted(&self) -> bool {
         self.hinted
     }
+    /// Passed the shared verification (False for a raw answer of ``verify=False`` and when not
+    /// ``ok``).
+    #[getter]
+    fn verified(&self) -> bool {
+        self.verified
+    }
     #[getter]
     fn false_match_probability(&self) -> f64 {
         self.false_match_probability
@@ -329,7 +341,7 @@ impl PyIdentification {
             me.hypotheses,
             me.method.to_string(),
             me.message.clone(),
-            me.hinted,
+            (me.hinted, me.verified),
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
     }
@@ -348,7 +360,7 @@ impl PyIdentification {
             hypotheses,
             method,
             message,
-            hinted,
+            (hinted, verified),
         ) = state;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
@@ -387,6 +399,7 @@ impl PyIdentification {
             method,
             message,
             hinted,
+            verified,
             ids,
             residuals_arcsec,
             rotation,
@@ -415,6 +428,7 @@ impl PyIdentification {
         d.set_item("method", self.method)?;
         d.set_item("message", self.message.as_deref())?;
         d.set_item("hinted", self.hinted)?;
+        d.set_item("verified", self.verified)?;
         d.set_item("ra_deg", json_float(py, ra)?)?;
         d.set_item("dec_deg", json_float(py, dec)?)?;
         d.set_item("roll_deg", json_float(py, roll)?)?;

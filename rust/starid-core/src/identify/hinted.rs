@@ -137,6 +137,11 @@ impl Solver {
     ) -> Result<Identification> {
         let start = Instant::now();
         config.validate()?;
+        if !config.verify {
+            return Err(Error::invalid_input(
+                "verify=false (raw method answers) is for lost-in-space identification only, not with an attitude hint",
+            ));
+        }
         hint.check()?;
         validate_centroids(centroids, magnitudes, camera)?;
         let n = centroids.len();

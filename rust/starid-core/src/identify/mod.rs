@@ -52,12 +52,14 @@ mod cache;
 mod hinted;
 mod magbins;
 mod pyramid;
+mod seeds;
 mod verify;
 mod voting;
 
 pub use cache::SolverCache;
 pub use hinted::{AttitudeHint, HintFallback, HINT_SEARCH_STARS, MAX_HINT_UNCERTAINTY_RAD};
 pub use magbins::MagPairIndex;
+pub use seeds::{SeedTables, RING_ORDER, RING_SLACK, SEED_CANDIDATES};
 pub(crate) use verify::binomial_tail;
 
 /// Frames a batch runs between two looks at its cancel flag (and the most results a cancelled
@@ -185,6 +187,11 @@ pub struct IdentifyConfig {
     /// the first few are then searched among the locally bright stars first, as with
     /// magnitudes. Set `false` for centroids in no particular order.
     pub brightness_order: bool,
+    /// Pass every hypothesis through the shared verification (the default). `false` is for
+    /// benchmarks and research only: the method's own first answer is returned unverified
+    /// ([`Identification::verified`] false, no false-match bound), so that its accuracy can
+    /// be measured as its authors meant; it may be wrong. Lost in space, known focal length only.
+    pub verify: bool,
 }
 
 /// How hypotheses are generated. Every method's hypotheses pass the same verification.
@@ -199,11 +206,53 @@ pub enum Method {
     /// Geometric voting (Kolomenkin et al. 2008): observed pairs vote for catalogue stars;
     /// the best-voted assignments become hypotheses.
     Voting,
+    /// P000 Method 1 (`SEEDS.md` §1): the main star's distances to every other spot, all
+    /// matched through the k-vector; catalogue order decides among the passing stars.
+    AngularDistance,
+    /// P000 Method 2 (§2): the two angles between the lines joining the main star's three
+    /// nearest neighbours, against a table of every catalogue star's.
+    StarLineAngle,
+    /// P000 Method 3 (§3): the summed loop of distances around the main star and its three
+    /// nearest neighbours, against a sorted table.
+    AngleSum,
+    /// P001 Model 1 (§5): every catalogue star votes with its distances for a base star near
+    /// the edge; the best voted is it.
+    DistanceVote,
+    /// P001 Model 2 (§6): neighbour counts in rings around a base star near the centre screen
+    /// the catalogue; Model 1's vote runs on the candidates.
+    RadialVote,
 }
 
 impl Method {
     /// Every method.
-    pub const ALL: [Method; 3] = [Method::Auto, Method::Pyramid, Method::Voting];
+    pub const ALL: [Method; 8] = [
+        Method::Auto,
+        Method::Pyramid,
+        Method::Voting,
+        Method::AngularDistance,
+        Method::StarLineAngle,
+        Method::AngleSum,
+        Method::DistanceVote,
+        Method::RadialVote,
+    ];
+
+    /// Whether this is one of the source documents' methods (see [`SeedTables`]).
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::Method;
+    /// assert!(Method::AngleSum.is_seed() && !Method::Pyramid.is_seed());
+    /// ```
+    pub fn is_seed(self) -> bool {
+        matches!(
+            self,
+            Self::AngularDistance
+                | Self::StarLineAngle
+                | Self::AngleSum
+                | Self::DistanceVote
+                | Self::RadialVote
+        )
+    }
 
     /// Lower-case name: `auto`, `pyramid`, `voting`.
     ///
@@ -216,6 +265,11 @@ impl Method {
             Self::Auto => "auto",
             Self::Pyramid => "pyramid",
             Self::Voting => "voting",
+            Self::AngularDistance => "angular-distance",
+            Self::StarLineAngle => "star-line-angle",
+            Self::AngleSum => "angle-sum",
+            Self::DistanceVote => "distance-vote",
+            Self::RadialVote => "radial-vote",
         }
     }
 
@@ -230,6 +284,11 @@ impl Method {
             Self::Auto => "Pyramid, brightest first; magnitude-gated over every spot when false stars crowd the frame",
             Self::Pyramid => "Pyramid (Mortari 2004) over the k-vector, brightest stars first",
             Self::Voting => "geometric voting (Kolomenkin 2008): observed pairs vote for catalogue stars",
+            Self::AngularDistance => "P000 method 1: the central star's distances to all others, every one matched (baseline)",
+            Self::StarLineAngle => "P000 method 2: angles between the lines joining the central star's 3 neighbours (baseline)",
+            Self::AngleSum => "P000 method 3: sum of the distances around the central star and its 3 neighbours (baseline)",
+            Self::DistanceVote => "P001 model 1: catalogue stars vote with their distances for an edge star (baseline)",
+            Self::RadialVote => "P001 model 2: ring counts around a central star screen, then model 1 votes (baseline)",
         }
     }
 
@@ -242,12 +301,13 @@ impl Method {
     /// ```
     /// use starid_core::Method;
     /// assert_eq!(Method::from_name("Pyramid").unwrap(), Method::Pyramid);
+    /// assert_eq!(Method::from_name("angle_sum").unwrap(), Method::AngleSum);
     /// assert!(Method::from_name("guess").is_err());
     /// ```
     pub fn from_name(name: &str) -> Result<Self> {
         Self::ALL
             .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(name))
+            .find(|m| m.name().eq_ignore_ascii_case(&name.replace('_', "-")))
             .ok_or_else(|| {
                 Error::invalid_input(format!(
                     "unknown method {name:?}: one of {}",
@@ -272,6 +332,7 @@ impl Default for IdentifyConfig {
             mag_offset: Some(0.0),
             mag_tolerance: 0.5,
             brightness_order: true,
+            verify: true,
         }
     }
 }
@@ -408,6 +469,10 @@ pub struct Identification {
     /// Found by the hinted (tracking) search of [`Solver::identify_hinted`]; false for lost in
     /// space, including a hinted call's fallback.
     pub hinted: bool,
+    /// The answer passed the shared verification. False when unidentified, and for a method's
+    /// raw answer with [`IdentifyConfig::verify`] off: then `false_match_probability` is 1
+    /// (no bound), `centroid_sigma_px` and `match_radius_rad` NaN, and the ids may be wrong.
+    pub verified: bool,
 }
 
 impl Identification {
@@ -448,6 +513,7 @@ impl Identification {
             method: Method::Auto,
             message: None,
             hinted: false,
+            verified: false,
         }
     }
 }
@@ -468,6 +534,8 @@ pub struct Solver {
     min_density_sr: f64,
     /// The pair index split by magnitude, built on the first magnitude-gated pass.
     mag_pairs: std::sync::OnceLock<MagPairIndex>,
+    /// The source documents' tables, built on first use.
+    seed_tables: std::sync::OnceLock<SeedTables>,
     build_time: Duration,
 }
 
@@ -529,6 +597,7 @@ impl Solver {
             mag32,
             mag_sorted,
             mag_pairs: std::sync::OnceLock::new(),
+            seed_tables: std::sync::OnceLock::new(),
             build_time: t.elapsed(),
         })
     }
@@ -644,6 +713,55 @@ impl Solver {
     pub fn mag_pair_index(&self) -> &MagPairIndex {
         self.mag_pairs
             .get_or_init(|| MagPairIndex::build(&self.pairs, &self.mag32))
+    }
+
+    /// The tables of the source documents' methods (neighbours, line angles, angle sums, ring
+    /// counts) for square fields of the index's diagonal, built on first use, once.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// let t = solver.seed_tables();
+    /// assert!(t.ring_bytes() == 3 * 3000 && t.angle_sum_bytes() > 0);
+    /// ```
+    pub fn seed_tables(&self) -> &SeedTables {
+        self.seed_tables
+            .get_or_init(|| SeedTables::build(&self.catalog, self.pairs.max_angle_rad() / SQRT_2))
+    }
+
+    /// The database `method` searches: `(bytes, build time)`. Pyramid, voting, angular
+    /// distance and distance voting search the pair indexes (and the magnitude index once
+    /// built); the other source documents' methods their own tables (built now if needed).
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::Method;
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// let (pairs, _) = solver.method_database(Method::AngularDistance);
+    /// let (rings, _) = solver.method_database(Method::RadialVote);
+    /// assert!(rings < pairs);
+    /// ```
+    pub fn method_database(&self, method: Method) -> (usize, Duration) {
+        match method {
+            Method::StarLineAngle => {
+                let t = self.seed_tables();
+                (t.star_line_angle_bytes(), t.neighbour_build_time())
+            }
+            Method::AngleSum => {
+                let t = self.seed_tables();
+                (t.angle_sum_bytes(), t.neighbour_build_time())
+            }
+            Method::RadialVote => {
+                let t = self.seed_tables();
+                (t.ring_bytes(), t.ring_build_time())
+            }
+            Method::AngularDistance | Method::DistanceVote => {
+                (self.pairs.memory_bytes(), self.build_time)
+            }
+            _ => (self.memory_bytes(), self.build_time),
+        }
     }
 
     /// Catalogue stars per steradian in the sparsest field of the sky (cones of half the
@@ -823,6 +941,7 @@ impl Solver {
             let work_before = search.pairs_visited;
             let found = match pass.method {
                 Method::Voting => search.vote(pass.stars, pass.sigma_px),
+                m if m.is_seed() => search.seed(m, pass.stars, pass.sigma_px),
                 _ => search.run(pass.stars, pass.sigma_px, pass.cap),
             };
             if pass.gated {
@@ -900,11 +1019,11 @@ impl Solver {
             method: Method::Pyramid,
         };
         let mut passes = Vec::with_capacity(8);
-        if config.method == Method::Voting {
+        if config.method == Method::Voting || config.method.is_seed() {
             for &s in ladder {
                 passes.push(Pass {
-                    gated,
-                    method: Method::Voting,
+                    gated: gated && config.method == Method::Voting,
+                    method: config.method,
                     ..pass(false, n.min(HOSTILE_SEARCH_STARS), s, usize::MAX)
                 });
             }
@@ -1288,6 +1407,9 @@ struct Search<'a> {
     /// Set in hinted (tracking) identification: what the false-match bound counts instead of
     /// a search of the whole sky.
     hint: Option<hinted::HintPrior>,
+    /// Centroids the current hypothesis was built from (3 for a triangle): they match by
+    /// construction, so the false-match bound counts only the others as evidence.
+    built: usize,
 }
 
 impl<'a> Search<'a> {
@@ -1323,6 +1445,7 @@ impl<'a> Search<'a> {
             stride: 0,
             method: config.method,
             hint: None,
+            built: 3,
         }
     }
 }
@@ -1339,9 +1462,31 @@ struct Verified {
     tail: f64,
     /// `tail` times the hypotheses tested (set by `accept`).
     false_prob: f64,
+    /// Passed the shared verification (false: a method's raw answer).
+    verified: bool,
+    /// Raw answers: whether an attitude could be fitted to the assignment (`r` is the
+    /// identity otherwise).
+    has_attitude: bool,
 }
 
 impl Verified {
+    /// A method's raw answer: `matches` as it named them, the attitude fitted to them if any.
+    fn raw(matches: Vec<Option<(u32, f64)>>, fit: Option<(Rotation3<f64>, bool)>) -> Self {
+        let matched = matches.iter().filter(|m| m.is_some()).count();
+        Self {
+            r: fit.map_or_else(Rotation3::identity, |f| f.0),
+            mirrored: fit.is_some_and(|f| f.1),
+            matches,
+            matched,
+            sigma_px: f64::NAN,
+            radius_rad: f64::NAN,
+            tail: 1.0,
+            false_prob: 1.0,
+            verified: false,
+            has_attitude: fit.is_some(),
+        }
+    }
+
     fn into_identification(self, hypotheses: usize, elapsed: Duration) -> Identification {
         Identification {
             status: Status::Identified,
@@ -1351,7 +1496,7 @@ impl Verified {
                 .iter()
                 .map(|m| m.map_or(f64::NAN, |(_, d)| d))
                 .collect(),
-            r_icrs_to_cam: Some(self.r),
+            r_icrs_to_cam: self.has_attitude.then_some(self.r),
             mirrored: self.mirrored,
             false_match_probability: self.false_prob,
             matched: self.matched,
@@ -1362,6 +1507,7 @@ impl Verified {
             method: Method::Auto,
             message: None,
             hinted: false,
+            verified: self.verified,
         }
     }
 }

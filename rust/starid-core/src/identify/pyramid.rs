@@ -134,6 +134,10 @@ impl Search<'_> {
                         Err(limit) => return self.accept(best).map_or(Err(limit), |v| Ok(Some(v))),
                     };
                     if let Some(v) = found {
+                        if !v.verified {
+                            // A raw answer (verify off): the first confirmed pyramid.
+                            return Ok(Some(v));
+                        }
                         if v.tail * (self.hypotheses as f64) <= STRONG_FALSE_MATCH_PROB {
                             return Ok(self.accept(Some(v)));
                         }
@@ -152,6 +156,9 @@ impl Search<'_> {
     /// The solution, if its bound over every hypothesis tested so far passes.
     pub(super) fn accept(&self, v: Option<Verified>) -> Option<Verified> {
         let mut v = v?;
+        if !v.verified {
+            return Some(v);
+        }
         v.false_prob = (self.hypotheses.max(1) as f64 * v.tail).min(1.0);
         (v.false_prob <= self.config.max_false_match_prob).then_some(v)
     }
@@ -217,6 +224,16 @@ impl Search<'_> {
                 sigma_rad,
             ) {
                 continue;
+            }
+            if !self.config.verify {
+                // The Pyramid's own answer: the confirmed pyramid's attitude names every
+                // centroid near a catalogue star, with no refit and no bound.
+                self.match_all(&r, obs, r_confirm, sigma_rad);
+                let named: Vec<(usize, u32)> = (self.scratch.matches.iter().enumerate())
+                    .filter_map(|(o, m)| m.map(|(s, _)| (o, s)))
+                    .collect();
+                result = Ok(Some(self.raw(&named)));
+                break;
             }
             if let Some(v) = self.verify(r, mirrored, r_confirm, sigma_rad) {
                 result = Ok(Some(v));

@@ -113,7 +113,9 @@ impl Search<'_> {
             } else {
                 rms_sigma
             };
-            sigma = est.max(0.5 * sigma_rad);
+            // Nor above MAX_NOISE_GROWTH times it: residuals far beyond the step's noise are a
+            // wrong fit widening its own radius, not noise (a noisier frame verifies at a looser step).
+            sigma = est.clamp(0.5 * sigma_rad, MAX_NOISE_GROWTH * sigma_rad);
             // Never below the step's own radius: residuals of a (possibly false) fit must not
             // talk the radius down, or the false-match bound would be computed after the fact.
             let new_radius = (4.0 * sigma).max(MATCH_RADIUS_SIGMAS * sigma_rad) + 1e-7;
@@ -124,6 +126,38 @@ impl Search<'_> {
             }
         }
         if !fixed_point {
+            matched = self.match_all(&r, obs, radius, sigma);
+        }
+        // A near miss: an attitude a little off (a hypothesis with a wrong star in it) matches
+        // the spots near its rotation's centre and holds still there, naming a few of them
+        // after their neighbours. Where most spots are unmatched, widen once, refit, and keep
+        // the attitude that matches more spots at the same radius. Residuals well above the
+        // step's noise say the same of a fit that matched most spots.
+        if (2 * matched < n && n >= REGROW_MIN_SPOTS) || sigma > 2.0 * sigma_rad {
+            for _ in 0..2 {
+                let wide = self.match_all(&r, obs, REGROW_FACTOR * radius, REGROW_FACTOR * sigma);
+                let Some(r2) = (wide >= 3)
+                    .then(|| wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r))
+                    .flatten()
+                else {
+                    break;
+                };
+                let m2 = self.match_all(&r2, obs, radius, sigma);
+                let r3 = if m2 >= 3 {
+                    wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r2)
+                        .unwrap_or(r2)
+                } else {
+                    r2
+                };
+                let m3 = self.match_all(&r3, obs, radius, sigma);
+                if m3 > matched {
+                    r = r3;
+                    matched = m3;
+                } else {
+                    break;
+                }
+            }
+            // The matches of the attitude kept.
             matched = self.match_all(&r, obs, radius, sigma);
         }
         // Tracking names frames of few stars among many spots: there a false spot on a
@@ -170,6 +204,8 @@ impl Search<'_> {
             radius_rad: radius,
             tail,
             false_prob: f64::NAN,
+            verified: true,
+            has_attitude: true,
         })
     }
 
@@ -427,7 +463,8 @@ impl Search<'_> {
         dropped
     }
 
-    /// `P(Bin(n − 3, p) ≥ m − 3)` with `p` from the local catalogue density.
+    /// `P(Bin(n − b, p) ≥ m − b)` with `p` from the local catalogue density and `b` the
+    /// centroids the hypothesis was built from (3 for a triangle).
     pub(super) fn match_tail(
         &self,
         r: &Rotation3<f64>,
@@ -451,7 +488,11 @@ impl Search<'_> {
                 h.base_chance(density * frac, radius)
                     * binomial_tail(n.saturating_sub(2), matched.saturating_sub(2), p)
             }
-            None => binomial_tail(n.saturating_sub(3), matched.saturating_sub(3), p),
+            None => binomial_tail(
+                n.saturating_sub(self.built),
+                matched.saturating_sub(self.built),
+                p,
+            ),
         }
     }
 
@@ -480,6 +521,16 @@ impl Search<'_> {
 /// Unmatched spots from which tracking checks matches against the frame's magnitude
 /// completeness.
 pub(super) const UNSEEN_CHECK_MIN_UNMATCHED: usize = 3;
+
+/// Spots from which a solution matching fewer than half of them is checked for a near miss.
+pub(super) const REGROW_MIN_SPOTS: usize = 8;
+
+/// How much the near-miss check widens the match radius.
+pub(super) const REGROW_FACTOR: f64 = 3.0;
+
+/// Most the noise estimated from a fit's residuals may exceed the search step's noise (the
+/// match radius is then at most 4 times this many step σ).
+pub(super) const MAX_NOISE_GROWTH: f64 = 4.0;
 
 /// Matches from which the noise is estimated by the median residual rather than the rms.
 pub(super) const ROBUST_SIGMA_MIN_MATCHES: usize = 6;

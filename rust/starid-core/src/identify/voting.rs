@@ -102,6 +102,22 @@ impl Search<'_> {
             .map(|(row, b)| (search[row], b.1, b.0))
             .collect();
         cand.sort_by_key(|c| std::cmp::Reverse(c.2));
+        if !self.config.verify {
+            // The vote's own answer: each centroid's best-voted star (a star voted best for two
+            // centroids names neither), before any triangle or verification.
+            let mut stars: Vec<u32> = cand.iter().map(|c| c.1).collect();
+            stars.sort_unstable();
+            let named: Vec<(usize, u32)> = cand
+                .iter()
+                .filter(|c| stars.iter().filter(|&&s| s == c.1).count() == 1)
+                .map(|c| (c.0, c.1))
+                .collect();
+            if named.len() < 2 {
+                return Ok(None);
+            }
+            self.hypotheses += 1;
+            return Ok(Some(self.raw(&named)));
+        }
         cand.truncate(VOTE_CANDIDATES);
         // Pairs of candidates whose catalogue separation agrees with the observed one.
         let cat = self.solver.catalog.vectors();
