@@ -73,11 +73,19 @@ def test_methods_and_method_option(tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["methods"]) == 0
     out = capsys.readouterr().out
     assert "pyramid" in out and "voting" in out
+    for name in ("angular-distance", "star-line-angle", "angle-sum", "distance-vote", "radial-vote"):
+        assert name in out
     f = tmp_path / "frame.csv"
     assert main(["simulate", str(f), "--seed", "3", "--mag-limit", "6"]) == 0
     capsys.readouterr()
     assert main(["identify", str(f), "--fov-deg", "12", "--size", "512x512", "--method", "voting", "--json"]) == 0
     assert '"method": "voting"' in capsys.readouterr().out
+    assert main(["identify", str(f), "--fov-deg", "12", "--size", "512x512", "--method", "distance-vote", "--json"]) == 0
+    out = capsys.readouterr().out
+    assert '"method": "distance-vote"' in out and '"verified": true' in out
+    assert main(["identify", str(f), "--fov-deg", "12", "--size", "512x512", "--method", "angle-sum", "--no-verify", "--sigma-px", "0.2"]) == 0
+    out = capsys.readouterr().out
+    assert "NOT verified" in out or "not identified" in out
 
 
 def test_a_bad_file_does_not_stop_the_others(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
