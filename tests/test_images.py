@@ -170,3 +170,42 @@ def test_cli_writes_a_wcs_file(tmp_path: Path, bundled: starid.Catalog) -> None:
     ra, dec = w.all_pix2world([320.5], [240.5], 1)
     assert ra[0] == pytest.approx(truth.ra_deg, abs=0.05) and dec[0] == pytest.approx(truth.dec_deg, abs=0.05)
     assert main(["identify", str(p), str(p), "--fov-deg", "12", "--wcs", str(out)]) == 2
+
+
+def test_annotated_picture_has_the_image_size(tmp_path: Path, bundled: starid.Catalog) -> None:
+    from PIL import Image
+
+    img, _ = starid.simulate_image(bundled, 12.0, (640, 480), seed=3, hot_pixels=5)
+    res = starid.identify_image(img, bundled, 12.0)
+    assert res.ok
+    out = tmp_path / "annotated.png"
+    fig = res.plot(img, out, catalog=bundled)
+    assert fig is not None
+    with Image.open(out) as im:
+        assert im.size == (640, 480)
+    # An Identification needs the spots it named; north and east project where the result points.
+    ident = res.identification
+    with pytest.raises(starid.InvalidInputError, match="xy"):
+        starid.plot.annotate(img, ident, tmp_path / "x.png")
+    centre = starid.plot.sky_to_pixel(ident, (640, 480), ident.ra_deg, ident.dec_deg)
+    assert np.allclose(centre, [[320.0, 240.0]], atol=1e-6)
+    known = ident.ids >= 0
+    rows = bundled._native.rows_of(ident.ids[known])
+    projected = starid.plot.sky_to_pixel(ident, (640, 480), bundled.ra_deg[rows], bundled.dec_deg[rows])
+    assert np.abs(projected - res.centroids.xy[known]).max() < 2.0  # within the residuals
+
+
+def test_cli_annotates_an_image(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from PIL import Image
+
+    from starid.cli import main
+
+    img, _ = starid.simulate_image(fov_deg=12.0, image_size=(512, 384), seed=5)
+    png = tmp_path / "frame.png"
+    Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(png)
+    out = tmp_path / "annotated.png"
+    assert main(["identify", str(png), "--fov-deg", "12", "--annotate", str(out)]) == 0
+    assert "annotated image written" in capsys.readouterr().out
+    with Image.open(out) as im:
+        assert im.size == (512, 384)
+    assert main(["identify", str(png), str(png), "--fov-deg", "12", "--annotate", str(out)]) == 2

@@ -12,7 +12,7 @@ The heavy lifting (k-vector pair index, Pyramid search, verification, attitude) 
 the Rust core; see ARCHITECTURE.md.
 """
 
-from . import guide, pointing, tracking, wcs
+from . import guide, plot, pointing, tracking, wcs
 from ._catalog import Catalog
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._identify import (
@@ -58,6 +58,7 @@ __all__ = [
     "simulate_image",
     "identify",
     "identify_many",
+    "plot",
     "pointing",
     "read_star_list",
     "simulate",

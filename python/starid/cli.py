@@ -60,6 +60,8 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--mag-offset", type=_mag_offset, default=0.0,
                        help="instrument minus catalogue magnitude (default 0), or 'unknown'")
     ident.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    ident.add_argument("--annotate", type=Path, metavar="OUT",
+                       help="write the image annotated with its identification as a PNG (one image file; needs matplotlib)")
     ident.add_argument("--wcs", type=Path, metavar="OUT",
                        help="write the FITS WCS header of the solution here, as solve-field does (one file; needs astropy)")
 
@@ -202,6 +204,9 @@ def _identify(args: argparse.Namespace) -> int:
         print("starid identify: --wcs takes one file", file=sys.stderr)
         return 2
     images = {k for k, f in enumerate(files) if _is_image_file(f)}
+    if args.annotate is not None and (len(files) != 1 or not images):
+        print("starid identify: --annotate takes one image file", file=sys.stderr)
+        return 2
     if size is None and len(images) < len(files):
         print("starid identify: --size is required for star lists (images give their own)", file=sys.stderr)
         return 2
@@ -299,6 +304,12 @@ def _identify(args: argparse.Namespace) -> int:
         failures += not res.ok
         if args.wcs is not None and res.ok:
             _write_wcs(args.wcs, res, sizes.get(n, size))
+        if args.annotate is not None:
+            from .plot import annotate
+
+            annotate(path, res, args.annotate, catalog=catalog, xy=stars.xy)
+            if not args.json:
+                print(f"annotated image written to {args.annotate}")
         if args.json:
             d = res.to_dict()
             d["file"] = str(path)

@@ -89,6 +89,14 @@ class ImageIdentification:
 
         return wcs(self.identification, self.centroids.image_size)
 
+    def plot(self, image: Union[npt.ArrayLike, PathLike], path: Optional[PathLike] = None, *, catalog: CatalogLike = None, dpi: int = 100) -> Any:
+        """The image annotated with this identification (see :func:`starid.plot.annotate`;
+        ``pip install starid[plot]``): saved as a PNG of the image's size at ``path`` when given;
+        returns the matplotlib figure."""
+        from .plot import annotate
+
+        return annotate(image, self, path, catalog=catalog, dpi=dpi)
+
 
 def read_image(path: PathLike) -> npt.NDArray[np.float32]:
     """Read an image file as a 2-D float32 array (H, W): PNG, JPEG, TIFF (8 or 16 bit; colour
