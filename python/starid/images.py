@@ -98,9 +98,9 @@ class ImageIdentification:
         return annotate(image, self, path, catalog=catalog, dpi=dpi)
 
 
-def read_image(path: PathLike) -> npt.NDArray[np.float32]:
-    """Read an image file as a 2-D float32 array (H, W): PNG, JPEG, TIFF (8 or 16 bit; colour
-    converted to luminance) through Pillow (``pip install starid[images]``), FITS through
+def read_image(path: PathLike) -> npt.NDArray[Any]:
+    """Read an image file as a 2-D array (H, W): uint8 or uint16 as stored, float32 otherwise
+    (colour converted to luminance): PNG, JPEG, TIFF (8 or 16 bit) through Pillow (``pip install starid[images]``), FITS through
     astropy (``pip install starid[fits]``; the first image HDU)."""
     p = Path(os.fspath(path))
     if p.is_dir():
@@ -135,8 +135,14 @@ def read_image(path: PathLike) -> npt.NDArray[np.float32]:
     raise InvalidInputError(f"{p}: unsupported image format {p.suffix or '(none)'}: PNG, JPEG, TIFF or FITS")
 
 
-def _as_image(arr: Any, name: str = "image") -> npt.NDArray[np.float32]:
-    """A 2-D float32 image from an array: (H, W), or (H, W, 3|4) colour → luminance."""
+#: Pixel types the core reads in place; other real types are converted to float32.
+_NATIVE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
+
+
+def _as_image(arr: Any, name: str = "image") -> npt.NDArray[Any]:
+    """A 2-D image from an array: (H, W), or (H, W, 3|4) colour → luminance (float32). uint8,
+    uint16 and float32 stay as they are (the core reads them in place); other real types
+    become float32."""
     a = np.asarray(arr)
     if a.ndim == 3 and a.shape[2] in (3, 4):
         a = a[:, :, :3].astype(np.float32) @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
@@ -144,15 +150,15 @@ def _as_image(arr: Any, name: str = "image") -> npt.NDArray[np.float32]:
         raise InvalidInputError(f"{name} must be a 2-D image (H, W) or colour (H, W, 3), got shape {a.shape}")
     if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
         raise InvalidInputError(f"{name} must hold real numbers, got {a.dtype}")
-    img = np.ascontiguousarray(a, dtype=np.float32)
+    img = np.ascontiguousarray(a, dtype=a.dtype if a.dtype in _NATIVE_DTYPES else np.float32)
     if img.shape[0] < 3 or img.shape[1] < 3:
         raise InvalidInputError(f"{name} must be at least 3 x 3 pixels, got {img.shape}")
-    if not np.isfinite(img).any():
+    if img.dtype == np.float32 and not np.isfinite(img).any():
         raise InvalidInputError(f"{name} holds no finite pixel")
     return img
 
 
-def _load(image: Any) -> npt.NDArray[np.float32]:
+def _load(image: Any) -> npt.NDArray[Any]:
     if isinstance(image, (str, os.PathLike)):
         return read_image(image)
     return _as_image(image)
@@ -190,7 +196,7 @@ def extract_centroids(
         dk = _load(dark)
         if dk.shape != img.shape:
             raise InvalidInputError(f"dark has shape {dk.shape}, the image {img.shape}")
-        img = np.asarray(img - dk, dtype=np.float32)
+        img = np.asarray(img.astype(np.float32) - dk, dtype=np.float32)
     if flat is not None:
         fl = _load(flat)
         if fl.shape != img.shape:
@@ -201,11 +207,12 @@ def extract_centroids(
             raise InvalidInputError("flat must have a positive median")
         with np.errstate(divide="ignore", invalid="ignore"):
             img = np.asarray(img / np.where(fl > 0, fl / med, np.nan), dtype=np.float32)
-    finite = np.isfinite(img)
-    if not finite.all():
-        img = np.where(finite, img, np.float32(np.median(img[finite]))).astype(np.float32)
+    if img.dtype == np.float32:
+        finite = np.isfinite(img)
+        if not finite.all():
+            img = np.where(finite, img, np.float32(np.median(img[finite]))).astype(np.float32)
     raw: dict[str, Any] = _starid.extract_centroids(
-        np.ascontiguousarray(img, dtype=np.float32),
+        img,
         float(threshold_sigma),
         _whole("background_block", background_block),
         _whole("min_pixels", min_pixels),

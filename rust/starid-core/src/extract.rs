@@ -1,15 +1,21 @@
 //! Centroid extraction: the star spots of a pixel image, brightest first.
 //!
-//! 1. Background: the median of each block of `background_block` × `background_block` pixels,
-//!    interpolated bilinearly between block centres (copes with gradients, vignetting and
-//!    moonlight); the noise: the robust σ (1.4826 × MAD) of the image less its background.
-//! 2. Detection: pixels more than `threshold_sigma` σ above the background, joined into
-//!    8-connected components.
-//! 3. Measurement: the centroid by intensity-weighted moments over a window around the peak
-//!    (background subtracted, not clipped, so the noise does not bias it), the flux over the
-//!    component, the peak, the size, and the elongation from the second moments.
-//! 4. Flags: single hot pixels (one pixel far above all its neighbours), saturated spots,
-//!    elongated spots (trails, satellites), spots touching the border.
+//! 1. Background: the median of each block of `background_block` × `background_block` pixels
+//!    (a sixteenth of them sampled), interpolated bilinearly between block centres (copes with
+//!    gradients, vignetting and moonlight). Noise: the robust σ (1.4826 × MAD) of the image
+//!    less its background over a sparse grid of pixels, and a local σ per block (interquartile
+//!    range, then the median over the block and its neighbours), which raises the threshold
+//!    where a bright background brings more shot noise (it never lowers it).
+//! 2. One pass over the pixels, in parallel bands of rows for large images: the image less
+//!    its background (into a buffer kept between calls on a thread), checked finite, and the
+//!    sparse list of pixels more than `threshold_sigma` σ above it. Hot pixels among them (one
+//!    pixel far above all its neighbours) are replaced by their neighbours' median.
+//! 3. Detection: 8-connected components grown from the listed pixels.
+//! 4. Measurement (in parallel over spots): the centroid by intensity-weighted moments over a
+//!    window around the peak, refined by a Gaussian-windowed fit; the flux over the component,
+//!    the peak, the size, and the elongation from the second moments.
+//! 5. Flags: single hot pixels, saturated spots, elongated spots (trails, satellites), spots
+//!    touching the border.
 //!
 //! Pixels follow the project's convention: pixel `(i, j)` (column, row) covers
 //! `[i, i + 1) × [j, j + 1)`, so its centre is at `(i + 0.5, j + 0.5)`, x right, y down, origin at
@@ -104,8 +110,26 @@ pub struct Extraction {
     pub hot_pixels: usize,
 }
 
-/// The spots of an image of `width` × `height` pixels, row-major, any numeric type convertible
-/// to `f32` (u8, u16, f32...).
+/// A pixel type [`extract`] reads: unsigned and signed integers, `f32`, `f64`.
+pub trait Pixel: Copy + Send + Sync {
+    /// The value as `f32`.
+    fn to_f32(self) -> f32;
+}
+
+macro_rules! pixel {
+    ($($t:ty),*) => {$(
+        impl Pixel for $t {
+            #[inline]
+            fn to_f32(self) -> f32 {
+                self as f32
+            }
+        }
+    )*};
+}
+pixel!(u8, u16, u32, i8, i16, i32, f32, f64);
+
+/// The spots of an image of `width` × `height` pixels, row-major, of any [`Pixel`] type (u8,
+/// u16, f32...): read in place, no converted copy is made.
 ///
 /// # Errors
 /// `InvalidInput` when the buffer does not hold `width × height` pixels, the image is smaller
@@ -129,55 +153,72 @@ pub struct Extraction {
 /// assert_eq!(found.spots.len(), 1);
 /// assert!((found.spots[0].x - 20.3).abs() < 0.05 && (found.spots[0].y - 30.6).abs() < 0.05);
 /// ```
-pub fn extract<T: Copy + Into<f64>>(
+pub fn extract<T: Pixel>(
     pixels: &[T],
     width: usize,
     height: usize,
     config: &ExtractConfig,
 ) -> Result<Extraction> {
     check(pixels.len(), width, height, config)?;
-    let img: Vec<f32> = pixels.iter().map(|&p| p.into() as f32).collect();
-    if let Some(k) = img.iter().position(|v| !v.is_finite()) {
-        return Err(Error::invalid_input(format!(
-            "pixel {k} (x {}, y {}) is not finite",
-            k % width,
-            k / width
-        )));
-    }
-    let bg = background(&img, width, height, config.background_block);
-    let mut resid: Vec<f32> = img.iter().zip(&bg).map(|(v, b)| v - b).collect();
-    let sigma = robust_sigma(&resid);
-    let hot_pixels = clean_hot_pixels(
-        &mut resid,
-        width,
-        height,
-        config.threshold_sigma * sigma,
-        config.hot_pixel_ratio,
-    );
-    let mut bg_sorted: Vec<f32> = bg
-        .iter()
-        .step_by(((width * height) / 4096).max(1))
-        .copied()
-        .collect();
-    let background_level = f64::from(median(&mut bg_sorted));
+    let grid = Background::new(pixels, width, height, config.background_block);
+    // The noise from a subsample of the image less its background, before the full pass.
+    let sigma = grid.robust_sigma(pixels, width, height);
+    let background_level = grid.level();
     // A flat, noiseless image has σ 0: nothing rises above it by chance.
     let floor = if sigma > 0.0 {
         config.threshold_sigma * sigma
     } else {
         f64::from(f32::EPSILON) * background_level.abs().max(1.0)
     };
-    let above = |k: usize| f64::from(resid[k]) > floor;
+    // One pass over the pixels: the image less its background (no background image is kept),
+    // checked finite, and the sparse list of pixels above the threshold.
+    let floor32 = floor as f32;
+    let thr = grid.thresholds(config.threshold_sigma as f32, floor32);
+    // The residual buffer is kept between calls on a thread: a fresh one would cost a page
+    // fault per 4 kB on first touch, as much again as the pass itself.
+    let mut resid: Vec<f32> = RESID.with(|c| c.take());
+    if resid.len() != width * height {
+        // Every value is written by the pass: a buffer of the right size is reused as it is.
+        resid.clear();
+        resid.resize(width * height, 0.0);
+    }
+    let (mut above_list, finite) = for_row_bands(&mut resid, width, |j, row, list| {
+        grid.subtract_row(pixels, &thr, j, row, list)
+    });
+    if !finite {
+        let k = pixels
+            .iter()
+            .position(|p| !p.to_f32().is_finite())
+            .or_else(|| resid.iter().position(|v| !v.is_finite()))
+            .unwrap_or(0);
+        return Err(Error::invalid_input(format!(
+            "pixel {k} (x {}, y {}) is not finite",
+            k % width,
+            k / width
+        )));
+    }
+    let hot_pixels = clean_hot_pixels(
+        &mut resid,
+        width,
+        height,
+        &above_list,
+        f64::from(floor32),
+        config.hot_pixel_ratio,
+    );
+    let above = |k: usize| resid[k] > grid.threshold_at(&thr, k % width, k / width);
+    if hot_pixels > 0 {
+        above_list.retain(|&k| above(k));
+    }
+    // Components (8-connected) grown from the listed pixels; the label map is touched only
+    // around them.
     let mut label = vec![false; width * height];
     let mut stack: Vec<usize> = Vec::new();
-    let mut comp: Vec<usize> = Vec::new();
-    let mut spots = Vec::new();
-    let mut dropped = 0;
-    for start in 0..width * height {
-        if label[start] || !above(start) {
+    let mut comps: Vec<Vec<usize>> = Vec::new();
+    for &start in &above_list {
+        if label[start] {
             continue;
         }
-        // Flood fill (8-connected).
-        comp.clear();
+        let mut comp = Vec::new();
         stack.push(start);
         label[start] = true;
         while let Some(k) = stack.pop() {
@@ -197,18 +238,27 @@ pub fn extract<T: Copy + Into<f64>>(
                 }
             }
         }
-        if comp.len() < config.min_pixels {
-            continue;
+        if comp.len() >= config.min_pixels {
+            comps.push(comp);
         }
-        let spot = measure(&img, &resid, width, height, &comp, config);
+    }
+    let measured = map_items(&comps, |comp| {
+        measure(pixels, &resid, width, height, comp, config)
+    });
+    let mut spots = Vec::with_capacity(measured.len());
+    let mut dropped = 0;
+    for spot in measured {
         if config.drop_flagged && spot.flags & (flags::HOT_PIXEL | flags::ELONGATED) != 0 {
             dropped += 1;
-            continue;
+        } else {
+            spots.push(spot);
         }
-        spots.push(spot);
     }
     spots.sort_by(|a, b| b.flux.total_cmp(&a.flux));
     spots.truncate(config.max_spots);
+    if resid.capacity() <= KEEP_BUFFER_PIXELS {
+        RESID.with(|c| c.replace(resid));
+    }
     Ok(Extraction {
         spots,
         background: background_level,
@@ -216,6 +266,63 @@ pub fn extract<T: Copy + Into<f64>>(
         dropped,
         hot_pixels,
     })
+}
+
+thread_local! {
+    /// The residual image of the last extraction on this thread, reused.
+    static RESID: std::cell::Cell<Vec<f32>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// Largest residual buffer kept between calls (pixels): 64 MB.
+const KEEP_BUFFER_PIXELS: usize = 16 << 20;
+
+/// Rows of at least this many pixels each make one parallel task.
+const ROWS_TASK_PIXELS: usize = 65_536;
+
+/// `f(j, row, list)` over the rows of `out` (`width` a row), in parallel over bands of rows
+/// for large images: the lists concatenated in row order, and whether every call returned true.
+fn for_row_bands(
+    out: &mut [f32],
+    width: usize,
+    f: impl Fn(usize, &mut [f32], &mut Vec<usize>) -> bool + Sync + Send,
+) -> (Vec<usize>, bool) {
+    let rows_per_band = (ROWS_TASK_PIXELS / width.max(1)).max(1);
+    let run = |b: usize, chunk: &mut [f32]| {
+        let mut list = Vec::new();
+        let mut ok = true;
+        for (r, row) in chunk.chunks_mut(width).enumerate() {
+            ok &= f(b * rows_per_band + r, row, &mut list);
+        }
+        (list, ok)
+    };
+    #[cfg(feature = "parallel")]
+    if out.len() > ROWS_TASK_PIXELS {
+        use rayon::prelude::*;
+        let parts: Vec<(Vec<usize>, bool)> = out
+            .par_chunks_mut(rows_per_band * width)
+            .enumerate()
+            .map(|(b, chunk)| run(b, chunk))
+            .collect();
+        let ok = parts.iter().all(|p| p.1);
+        return (parts.into_iter().flat_map(|p| p.0).collect(), ok);
+    }
+    let parts: Vec<(Vec<usize>, bool)> = out
+        .chunks_mut(rows_per_band * width)
+        .enumerate()
+        .map(|(b, chunk)| run(b, chunk))
+        .collect();
+    let ok = parts.iter().all(|p| p.1);
+    (parts.into_iter().flat_map(|p| p.0).collect(), ok)
+}
+
+/// `f` over items, in parallel when there are many.
+fn map_items<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
+    #[cfg(feature = "parallel")]
+    if items.len() > 16 {
+        use rayon::prelude::*;
+        return items.par_iter().map(f).collect();
+    }
+    items.iter().map(f).collect()
 }
 
 fn check(len: usize, width: usize, height: usize, config: &ExtractConfig) -> Result<()> {
@@ -258,12 +365,13 @@ fn check(len: usize, width: usize, height: usize, config: &ExtractConfig) -> Res
     Ok(())
 }
 
-/// Replace hot pixels (above `floor`, with no neighbour holding `ratio` of their signal) by the
-/// median of their neighbours; returns how many.
+/// Replace hot pixels among `candidates` (pixels above `floor`) with no neighbour holding
+/// `ratio` of their signal by the median of their neighbours; returns how many.
 fn clean_hot_pixels(
     resid: &mut [f32],
     width: usize,
     height: usize,
+    candidates: &[usize],
     floor: f64,
     ratio: f64,
 ) -> usize {
@@ -273,31 +381,30 @@ fn clean_hot_pixels(
     let floor = floor.max(f64::MIN_POSITIVE);
     let mut hot = Vec::new();
     let mut nb = [0.0f32; 8];
-    for j in 0..height {
-        for i in 0..width {
-            let v = f64::from(resid[j * width + i]);
-            if v <= floor {
-                continue;
-            }
-            let mut n = 0;
-            for dj in -1..=1isize {
-                for di in -1..=1isize {
-                    let (ni, nj) = (i as isize + di, j as isize + dj);
-                    if (di != 0 || dj != 0)
-                        && ni >= 0
-                        && nj >= 0
-                        && (ni as usize) < width
-                        && (nj as usize) < height
-                    {
-                        nb[n] = resid[nj as usize * width + ni as usize];
-                        n += 1;
-                    }
+    for &k in candidates {
+        let (i, j) = (k % width, k / width);
+        let v = f64::from(resid[k]);
+        if v <= floor {
+            continue;
+        }
+        let mut n = 0;
+        for dj in -1..=1isize {
+            for di in -1..=1isize {
+                let (ni, nj) = (i as isize + di, j as isize + dj);
+                if (di != 0 || dj != 0)
+                    && ni >= 0
+                    && nj >= 0
+                    && (ni as usize) < width
+                    && (nj as usize) < height
+                {
+                    nb[n] = resid[nj as usize * width + ni as usize];
+                    n += 1;
                 }
             }
-            let brightest = nb[..n].iter().copied().fold(f32::NEG_INFINITY, f32::max);
-            if f64::from(brightest) < ratio * v {
-                hot.push((j * width + i, median(&mut nb[..n])));
-            }
+        }
+        let brightest = nb[..n].iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        if f64::from(brightest) < ratio * v {
+            hot.push((k, median(&mut nb[..n])));
         }
     }
     for &(k, m) in &hot {
@@ -315,72 +422,205 @@ fn median(v: &mut [f32]) -> f32 {
     *v.select_nth_unstable_by(k, f32::total_cmp).1
 }
 
-/// 1.4826 × the median absolute deviation of a subsample.
-fn robust_sigma(resid: &[f32]) -> f64 {
-    let step = (resid.len() / 65_536).max(1);
-    let mut s: Vec<f32> = resid.iter().step_by(step).copied().collect();
-    let m = median(&mut s);
-    for v in &mut s {
-        *v = (*v - m).abs();
-    }
-    1.4826 * f64::from(median(&mut s))
+/// The background: block medians, interpolated bilinearly between block centres.
+struct Background {
+    /// Per grid row, the background along x (bilinear between the block centres).
+    rows: Vec<Vec<f32>>,
+    /// Per grid row, the local noise σ along x (the same interpolation).
+    noise_rows: Vec<Vec<f32>>,
+    /// Block centres along y.
+    cy: Vec<f64>,
+    /// Per image row, its two grid rows and the weight of the second.
+    row_weights: Vec<(usize, usize, f32)>,
+    /// The block medians.
+    grid: Vec<f32>,
 }
 
-/// Block medians, interpolated bilinearly between block centres.
-fn background(img: &[f32], width: usize, height: usize, block: usize) -> Vec<f32> {
-    let (bw, bh) = (width.div_ceil(block), height.div_ceil(block));
-    let mut grid = vec![0.0f32; bw * bh];
-    let mut buf = Vec::with_capacity(block * block);
-    for by in 0..bh {
-        for bx in 0..bw {
-            buf.clear();
-            // Every other row and column: a quarter of the pixels give the same median.
-            for j in ((by * block)..((by + 1) * block).min(height)).step_by(2) {
-                buf.extend(
-                    img[j * width + bx * block..j * width + ((bx + 1) * block).min(width)]
-                        .iter()
-                        .step_by(2),
-                );
-            }
-            grid[by * bw + bx] = median(&mut buf);
-        }
-    }
-    let centre = |b: usize, n: usize, size: usize| {
-        ((b * block) as f64 + 0.5 * ((block.min(size - b * block)) as f64)).min(n as f64)
-    };
-    let cx: Vec<f64> = (0..bw).map(|b| centre(b, width, width)).collect();
-    let cy: Vec<f64> = (0..bh).map(|b| centre(b, height, height)).collect();
-    let interp = |c: &[f64], p: f64| -> (usize, usize, f64) {
-        if c.len() == 1 || p <= c[0] {
-            return (0, 0, 0.0);
-        }
-        let last = c.len() - 1;
-        if p >= c[last] {
-            return (last, last, 0.0);
-        }
-        let k = c.partition_point(|&v| v <= p) - 1;
-        (k, k + 1, (p - c[k]) / (c[k + 1] - c[k]))
-    };
-    let mut out = vec![0.0f32; width * height];
-    let xs: Vec<(usize, usize, f64)> = (0..width).map(|i| interp(&cx, i as f64 + 0.5)).collect();
-    // Each row: the background along x of the two grid rows around it, then mixed in y.
-    let along_x = |y: usize| -> Vec<f32> {
-        xs.iter()
-            .map(|&(x0, x1, tx)| {
-                (f64::from(grid[y * bw + x0]) * (1.0 - tx) + f64::from(grid[y * bw + x1]) * tx)
-                    as f32
+impl Background {
+    fn new<T: Pixel>(img: &[T], width: usize, height: usize, block: usize) -> Self {
+        let (bw, bh) = (width.div_ceil(block), height.div_ceil(block));
+        let block_row = |by: usize| -> Vec<(f32, f32)> {
+            let mut buf: Vec<f32> = Vec::with_capacity(block * block / 16 + block);
+            (0..bw)
+                .map(|bx| {
+                    buf.clear();
+                    // Every fourth row and column: a sixteenth of the pixels (64 of a 32-pixel
+                    // block) give the median within a sixth of the noise, and the interpolation
+                    // between four blocks averages that down.
+                    for j in ((by * block)..((by + 1) * block).min(height)).step_by(4) {
+                        buf.extend(
+                            img[j * width + bx * block..j * width + ((bx + 1) * block).min(width)]
+                                .iter()
+                                .step_by(4)
+                                .map(|p| p.to_f32()),
+                        );
+                    }
+                    // The median partitions the samples: the quartiles are the medians of the two
+                    // halves, and σ = IQR / 1.349 (robust to a star in the block).
+                    let k = buf.len() / 2;
+                    let m = median(&mut buf);
+                    let (lo, hi) = buf.split_at_mut(k);
+                    let q1 = median(lo);
+                    let q3 = if hi.len() > 1 {
+                        median(&mut hi[1..])
+                    } else {
+                        m
+                    };
+                    (m, (q3 - q1) / 1.349)
+                })
+                .collect()
+        };
+        let grid_rows: Vec<usize> = (0..bh).collect();
+        let cells: Vec<(f32, f32)> = map_items(&grid_rows, |&by| block_row(by))
+            .into_iter()
+            .flatten()
+            .collect();
+        let grid: Vec<f32> = cells.iter().map(|c| c.0).collect();
+        // The local noise, each block's the median over it and its neighbours (a star or a
+        // trail in one block does not raise it).
+        let noise: Vec<f32> = (0..bh * bw)
+            .map(|k| {
+                let (bx, by) = ((k % bw) as isize, (k / bw) as isize);
+                let mut near = [0.0f32; 9];
+                let mut n = 0;
+                for dy in -1..=1isize {
+                    for dx in -1..=1isize {
+                        let (x, y) = (bx + dx, by + dy);
+                        if x >= 0 && y >= 0 && (x as usize) < bw && (y as usize) < bh {
+                            near[n] = cells[y as usize * bw + x as usize].1;
+                            n += 1;
+                        }
+                    }
+                }
+                median(&mut near[..n])
             })
-            .collect()
-    };
-    let rows: Vec<Vec<f32>> = (0..bh).map(along_x).collect();
-    for (j, row) in out.chunks_mut(width).enumerate() {
-        let (y0, y1, ty) = interp(&cy, j as f64 + 0.5);
-        let (a, b, t) = (&rows[y0], &rows[y1], ty as f32);
-        for ((o, &u), &v) in row.iter_mut().zip(a).zip(b) {
-            *o = u + (v - u) * t;
+            .collect();
+        let centre = |b: usize, n: usize| {
+            ((b * block) as f64 + 0.5 * ((block.min(n - b * block)) as f64)).min(n as f64)
+        };
+        let cx: Vec<f64> = (0..bw).map(|b| centre(b, width)).collect();
+        let cy: Vec<f64> = (0..bh).map(|b| centre(b, height)).collect();
+        let xs: Vec<(usize, usize, f64)> =
+            (0..width).map(|i| interp(&cx, i as f64 + 0.5)).collect();
+        let along_x = |g: &[f32]| -> Vec<Vec<f32>> {
+            (0..bh)
+                .map(|y| {
+                    xs.iter()
+                        .map(|&(x0, x1, tx)| {
+                            (f64::from(g[y * bw + x0]) * (1.0 - tx)
+                                + f64::from(g[y * bw + x1]) * tx) as f32
+                        })
+                        .collect()
+                })
+                .collect()
+        };
+        let rows = along_x(&grid);
+        let noise_rows = along_x(&noise);
+        let row_weights = (0..height)
+            .map(|j| {
+                let (y0, y1, t) = interp(&cy, j as f64 + 0.5);
+                (y0, y1, t as f32)
+            })
+            .collect();
+        Self {
+            rows,
+            noise_rows,
+            cy,
+            row_weights,
+            grid,
         }
     }
-    out
+
+    /// Per grid row, the detection threshold along x: `k` local noise σ, never below `floor`
+    /// (the global threshold): the local noise only raises it, where the background is bright
+    /// and the shot noise with it, never lowers it (a background clipped at zero has none).
+    fn thresholds(&self, k: f32, floor: f32) -> Vec<Vec<f32>> {
+        self.noise_rows
+            .iter()
+            .map(|r| r.iter().map(|&s| (k * s).max(floor)).collect())
+            .collect()
+    }
+
+    /// `out = img − background` along row `j`; the pixels above the threshold rows `thr` (of
+    /// the nearer grid row) pushed on `list`; whether all values are finite.
+    fn subtract_row<T: Pixel>(
+        &self,
+        img: &[T],
+        thr: &[Vec<f32>],
+        j: usize,
+        out: &mut [f32],
+        list: &mut Vec<usize>,
+    ) -> bool {
+        let width = out.len();
+        let (y0, y1, t) = self.row_weights[j];
+        let (a, b) = (&self.rows[y0][..width], &self.rows[y1][..width]);
+        let th = &thr[if t < 0.5 { y0 } else { y1 }][..width];
+        let src = &img[j * width..(j + 1) * width];
+        // Integer counts, not a float maximum: the loop vectorises.
+        let (mut over, mut bad) = (0u32, 0u32);
+        for i in 0..width {
+            let v = src[i].to_f32() - (a[i] + (b[i] - a[i]) * t);
+            out[i] = v;
+            over += u32::from(v > th[i]);
+            bad |= u32::from(!v.is_finite());
+        }
+        // A few pixels in a thousand rise above it: listed only in rows that have any.
+        if over > 0 {
+            list.extend(
+                (0..width)
+                    .filter(|&i| out[i] > th[i])
+                    .map(|i| j * width + i),
+            );
+        }
+        bad == 0
+    }
+
+    /// The threshold rows' value at pixel `(i, j)`, as [`Background::subtract_row`] reads it.
+    fn threshold_at(&self, thr: &[Vec<f32>], i: usize, j: usize) -> f32 {
+        let (y0, y1, t) = self.row_weights[j];
+        thr[if t < 0.5 { y0 } else { y1 }][i]
+    }
+
+    /// 1.4826 × the median absolute deviation of the image less its background, over a grid
+    /// of about 16 384 pixels (odd steps, so that no pattern of the sensor's lines aliases).
+    fn robust_sigma<T: Pixel>(&self, img: &[T], width: usize, height: usize) -> f64 {
+        let step = (((width * height) as f64 / 16_384.0).sqrt() as usize).max(1) | 1;
+        let mut s: Vec<f32> = Vec::with_capacity((width / step + 1) * (height / step + 1));
+        for j in (step / 2..height).step_by(step) {
+            let (y0, y1, ty) = interp(&self.cy, j as f64 + 0.5);
+            let (a, b, t) = (&self.rows[y0], &self.rows[y1], ty as f32);
+            for i in (step / 2..width).step_by(step) {
+                let x = img[j * width + i].to_f32() - (a[i] + (b[i] - a[i]) * t);
+                if x.is_finite() {
+                    s.push(x);
+                }
+            }
+        }
+        let m = median(&mut s);
+        for v in &mut s {
+            *v = (*v - m).abs();
+        }
+        1.4826 * f64::from(median(&mut s))
+    }
+
+    /// The median of the block medians.
+    fn level(&self) -> f64 {
+        let mut g = self.grid.clone();
+        f64::from(median(&mut g))
+    }
+}
+
+/// The two centres around `p` and the weight of the second (clamped at the ends).
+fn interp(c: &[f64], p: f64) -> (usize, usize, f64) {
+    if c.len() == 1 || p <= c[0] {
+        return (0, 0, 0.0);
+    }
+    let last = c.len() - 1;
+    if p >= c[last] {
+        return (last, last, 0.0);
+    }
+    let k = c.partition_point(|&v| v <= p) - 1;
+    (k, k + 1, (p - c[k]) / (c[k + 1] - c[k]))
 }
 
 /// Gaussian-windowed centroid (the window's σ that of the spot): starting from the moments,
@@ -429,8 +669,8 @@ fn refine_gaussian(
 }
 
 /// Centroid, flux, shape and flags of one component.
-fn measure(
-    img: &[f32],
+fn measure<T: Pixel>(
+    img: &[T],
     resid: &[f32],
     width: usize,
     height: usize,
@@ -447,7 +687,7 @@ fn measure(
             peak = v;
             peak_k = k;
         }
-        raw_peak = raw_peak.max(f64::from(img[k]));
+        raw_peak = raw_peak.max(f64::from(img[k].to_f32()));
         let (i, j) = (k % width, k / width);
         border |= i == 0 || j == 0 || i == width - 1 || j == height - 1;
     }

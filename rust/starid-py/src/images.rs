@@ -13,13 +13,31 @@ use crate::catalog::PyCatalog;
 use crate::errors::InvalidInputError;
 use crate::{outcome, run_core};
 
-/// The spots of a 2-D image (float32, row-major): dict of arrays, brightest first.
+/// Extraction over a borrowed numpy image of pixel type `T` (read in place when contiguous).
+fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
+    py: Python<'_>,
+    image: &PyReadonlyArray2<'_, T>,
+    cfg: &ExtractConfig,
+) -> PyResult<starid_core::extract::Extraction> {
+    let view = image.as_array();
+    let (h, w) = (view.nrows(), view.ncols());
+    match image.as_slice() {
+        Ok(pixels) => run_core(py, || extract(pixels, w, h, cfg)),
+        Err(_) => {
+            let pixels: Vec<T> = view.iter().copied().collect();
+            run_core(py, move || extract(&pixels, w, h, cfg))
+        }
+    }
+}
+
+/// The spots of a 2-D image (uint8, uint16 or float32, row-major): dict of arrays, brightest
+/// first.
 #[pyfunction]
 #[pyo3(signature = (image, threshold_sigma=5.0, background_block=32, min_pixels=1, max_spots=2000,
                     saturation=None, max_elongation=3.0, drop_flagged=true, hot_pixel_ratio=0.25))]
 pub fn extract_centroids<'py>(
     py: Python<'py>,
-    image: PyReadonlyArray2<'py, f32>,
+    image: &Bound<'py, PyAny>,
     threshold_sigma: f64,
     background_block: usize,
     min_pixels: usize,
@@ -29,9 +47,6 @@ pub fn extract_centroids<'py>(
     drop_flagged: bool,
     hot_pixel_ratio: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let view = image.as_array();
-    let (h, w) = (view.nrows(), view.ncols());
-    let pixels: Vec<f32> = view.iter().copied().collect();
     if !(hot_pixel_ratio.is_finite() && (0.0..1.0).contains(&hot_pixel_ratio)) {
         return Err(InvalidInputError::new_err(format!(
             "hot_pixel_ratio must be in [0, 1), got {hot_pixel_ratio}"
@@ -47,7 +62,17 @@ pub fn extract_centroids<'py>(
         drop_flagged,
         hot_pixel_ratio,
     };
-    let ex = run_core(py, move || extract(&pixels, w, h, &cfg))?;
+    let ex = if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u16>>() {
+        extract_array(py, &a, &cfg)?
+    } else if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u8>>() {
+        extract_array(py, &a, &cfg)?
+    } else if let Ok(a) = image.extract::<PyReadonlyArray2<'py, f32>>() {
+        extract_array(py, &a, &cfg)?
+    } else {
+        return Err(InvalidInputError::new_err(
+            "image must be a 2-D array of uint8, uint16 or float32",
+        ));
+    };
     let d = PyDict::new(py);
     let n = ex.spots.len();
     let xy: Vec<f64> = ex.spots.iter().flat_map(|s| [s.x, s.y]).collect();
