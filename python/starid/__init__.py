@@ -13,7 +13,7 @@ the Rust core; see ARCHITECTURE.md.
 """
 
 from . import guide, plot, pointing, tracking, wcs
-from ._catalog import Catalog
+from ._catalog import MIN_STARS_PER_FIELD, Catalog, catalog_for
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._identify import (
     DEFAULT_FOV_RANGE_DEG,
@@ -36,6 +36,8 @@ from .tracking import SequenceFrame, Tracker, TrackStep, simulate_sequence, trac
 __all__ = [
     "DEFAULT_FOV_RANGE_DEG",
     "Camera",
+    "MIN_STARS_PER_FIELD",
+    "catalog_for",
     "Centroids",
     "ImageIdentification",
     "Catalog",

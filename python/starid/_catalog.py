@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 import os
 import re
 import threading
@@ -21,6 +22,11 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 _default: Optional["Catalog"] = None
+_deep: Optional["Catalog"] = None
+
+#: With ``catalog=None``, the deep bundled catalogue is used when the default one holds fewer
+#: stars than this in a field of the camera's size on average.
+MIN_STARS_PER_FIELD = 10.0
 
 
 def _with_path(e: Exception, path: str) -> CatalogError:
@@ -60,7 +66,17 @@ class Catalog:
     (3, [1, 2, 3])
     """
 
-    __slots__ = ("_native", "name")
+    __slots__ = ("_native", "_name")
+
+    @property
+    def name(self) -> Optional[str]:
+        """The catalogue's name; identification results report it (``Identification.catalog``)."""
+        return self._name
+
+    @name.setter
+    def name(self, value: Optional[str]) -> None:
+        self._name = None if value is None else str(value)
+        self._native._set_name(self._name)
 
     # Pickling ships the arrays (40 bytes a star: id, unit vector, magnitude), never the pair
     # indexes: a worker that unpickles a catalogue builds its own index on first use.
@@ -215,6 +231,24 @@ class Catalog:
         return cls._wrap(native, f"Hipparcos Hp<={mag_limit:g} J{epoch:g}")
 
     @classmethod
+    def deep(cls) -> "Catalog":
+        """The bundled deep catalogue: Hipparcos stars brighter than Hp 8 at J2000.0 (37 622
+        stars), for narrow fields, where the default one leaves too few stars (see
+        :func:`catalog_for`). Loaded once and shared.
+        """
+        global _deep
+        if _deep is None:
+            with np.load(Path(__file__).parent / "data" / "hipparcos_hp8_j2000.npz") as z:
+                _deep = cls(
+                    z["id"].astype(np.int64),
+                    z["ra_mas"] / 3.6e6,
+                    z["dec_mas"] / 3.6e6,
+                    z["mag_mmag"] / 1000.0,
+                    name="Hipparcos Hp<=8 J2000 (bundled)",
+                )
+        return _deep
+
+    @classmethod
     def default(cls) -> "Catalog":
         """The bundled catalogue: Hipparcos stars brighter than Hp 6.5 at J2000.0 (7982 stars).
 
@@ -354,6 +388,38 @@ def _float_column(name: str, values: npt.ArrayLike) -> npt.NDArray[np.float64]:
         return np.ascontiguousarray(values, dtype=np.float64).ravel()
     except (TypeError, ValueError) as e:
         raise CatalogError(f"{name} must be numeric: {e}") from e
+
+
+def field_solid_angle_sr(fov_deg: float, image_size: tuple[float, float]) -> float:
+    """Solid angle of a rectangular field ``fov_deg`` across the width of an ``image_size``
+    sensor (a gnomonic camera): ``4 asin(sin(a/2) sin(b/2))`` for full angles ``a``, ``b``."""
+    w, h = (float(v) for v in image_size)
+    f = 0.5 * w / math.tan(math.radians(fov_deg) / 2)
+    a, b = 2 * math.atan(w / (2 * f)), 2 * math.atan(h / (2 * f))
+    return 4 * math.asin(math.sin(a / 2) * math.sin(b / 2))
+
+
+def catalog_for(fov_deg: float, image_size: tuple[float, float] = (1.0, 1.0)) -> "Catalog":
+    """The bundled catalogue deep enough for a field: the default one (Hipparcos to Hp 6.5)
+    when it holds at least :data:`MIN_STARS_PER_FIELD` stars in a field of this size on
+    average (fields wider than about 7.2 degrees square), the deep one (to Hp 8) otherwise.
+    ``catalog=None`` chooses this way; results name the choice (``Identification.catalog``).
+
+    >>> import starid
+    >>> starid.catalog_for(12.0, (512, 512)).name, starid.catalog_for(6.0, (1392, 1080)).name
+    ('Hipparcos Hp<=6.5 J2000 (bundled)', 'Hipparcos Hp<=8 J2000 (bundled)')
+    """
+    shallow = Catalog.default()
+    stars = len(shallow) * field_solid_angle_sr(float(fov_deg), image_size) / (4 * math.pi)
+    return shallow if stars >= MIN_STARS_PER_FIELD else Catalog.deep()
+
+
+def resolve_catalog_for(catalog: Union["Catalog", PathLike, None], camera: Any) -> "Catalog":
+    """As :func:`resolve_catalog`, but ``None`` → :func:`catalog_for` the camera (a
+    ``starid.Camera``; None: the default catalogue)."""
+    if catalog is None and camera is not None:
+        return catalog_for(camera.fov_deg, camera.image_size)
+    return resolve_catalog(catalog)
 
 
 def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":

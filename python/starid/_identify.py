@@ -14,7 +14,7 @@ import numpy.typing as npt
 
 from . import _starid
 from ._errors import InvalidInputError
-from ._catalog import Catalog, resolve_catalog
+from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
 
 __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "identify_many", "simulate"]
 
@@ -363,8 +363,8 @@ def identify(
             attitude_hint=attitude_hint, hint_uncertainty_deg=hint_uncertainty_deg, hint_fallback=hint_fallback,
             config=config, **settings,
         ).identification
-    cat = resolve_catalog(catalog)
     cam = _camera(camera, fov_deg, image_size)
+    cat = resolve_catalog_for(catalog, cam)
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
     cfg = _config(config, settings)
@@ -463,8 +463,8 @@ def identify_many(
     >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
     [True, True, True, True]
     """
-    cat = resolve_catalog(catalog)
     cam = _camera(camera, fov_deg, image_size)
+    cat = resolve_catalog_for(catalog, cam)
     if cam is None:
         w, h = _image_size(image_size)
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
@@ -577,7 +577,7 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message, (False, False))
+    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message, (False, False, None))
     return Identification._from_state(state)
 
 
@@ -636,9 +636,9 @@ def simulate(
     >>> f.n_real > 10
     True
     """
-    cat = resolve_catalog(catalog)
     w, h = _image_size(image_size)
     fov = _fov(fov_deg)
+    cat = resolve_catalog_for(catalog, _camera(None, fov, (w, h)))
     if seed is None:
         seed = secrets.randbits(63)
     seed = int(seed)
@@ -674,7 +674,7 @@ def simulate_scene(family: str, catalog: CatalogLike = None, *, seed: Optional[i
     ``"K1"`` (Kelvins "Star Trackers: First Contact" style: 1920x1440 px, 10 x 7.5 degrees,
     stars to magnitude 6.2 after photometric noise, 0-80 false spots with catalogue-like
     magnitudes), ``"K2"`` (narrow: 1392x1080 px, 6 degrees, stars to 7.75, 0-10 false spots;
-    meant for a catalogue to magnitude 8) or ``"K3"`` (deep: 15.78 arcsec/px, stars to 11 among
+    with catalog=None the deep bundled catalogue, to Hp 8) or ``"K3"`` (deep: 15.78 arcsec/px, stars to 11 among
     stars the catalogue lacks; a catalogue to 11). Scenes of odd seed are mirrored; spots come in
     random order with magnitudes in the catalogue's system.
 
@@ -685,9 +685,10 @@ def simulate_scene(family: str, catalog: CatalogLike = None, *, seed: Optional[i
     >>> f.image_size, round(f.fov_deg, 1)
     ((1920.0, 1440.0), 10.0)
     """
-    cat = resolve_catalog(catalog)
     if not isinstance(family, str) or family.upper() not in SCENE_FAMILIES:
         raise InvalidInputError(f"family must be one of {', '.join(SCENE_FAMILIES)}, got {family!r}")
+    # K2's narrow field needs stars to magnitude 8: the deep bundled catalogue by default.
+    cat = Catalog.deep() if catalog is None and family.upper() == "K2" else resolve_catalog(catalog)
     if seed is None:
         seed = secrets.randbits(63)
     seed = int(seed)

@@ -27,9 +27,9 @@ import numpy as np
 import pandas as pd
 
 from . import _starid
-from ._catalog import Catalog, resolve_catalog
+from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Identification, identify_many
+from ._identify import CatalogLike, Identification, _camera, identify_many
 
 try:
     import dask.bag as dask_bag
@@ -176,7 +176,8 @@ def identify_frames(
         Lazy: ``.compute()``, ``.to_parquet(...)``. Results equal :func:`starid.identify_many`'s,
         frame for frame; a malformed frame gets status ``invalid_input``, never stops the job.
     """
-    cat = resolve_catalog(catalog)
+    cam = _camera(kwargs.get("camera"), fov_deg, image_size) if (fov_deg is not None or kwargs.get("camera") is not None) else None
+    cat = resolve_catalog_for(catalog, cam)  # as identify_many chooses
     key = _fingerprint(cat)
     cat_node = delayed(cat, pure=True)
     if "magnitudes" in kwargs:
@@ -246,14 +247,15 @@ def _read_any(path: str) -> np.ndarray:
 
 
 def _identify_paths(
-    paths: list[str], cat: Catalog, key: str, kwargs: dict[str, Any], extract: dict[str, Any]
+    paths: list[str], cat: Optional[Catalog], key: str, kwargs: dict[str, Any], extract: dict[str, Any]
 ) -> pd.DataFrame:
     """One partition of image files: read, extract, identify; a file that cannot be read gets
     status ``invalid_input`` with the reason."""
     from ._identify import _invalid
     from .images import identify_image
 
-    cat = _worker_catalog(cat, key)
+    # None: each image gets the bundled catalogue its field needs, as identify_image chooses.
+    cat = None if cat is None else _worker_catalog(cat, key)
     kw = dict(kwargs)
     fov = kw.pop("fov_deg", None)
     results: list[Identification] = []
@@ -282,8 +284,8 @@ def identify_images(
     :func:`starid.identify` (the image size comes from each image). A file that cannot be read
     gets status ``invalid_input``, naming it.
     """
-    cat = resolve_catalog(catalog)
-    key = _fingerprint(cat)
+    cat = None if catalog is None else resolve_catalog(catalog)
+    key = "" if cat is None else _fingerprint(cat)
     cat_node = delayed(cat, pure=True)
     kw = dict(kwargs, fov_deg=fov_deg)
     if isinstance(paths, dask_bag.Bag):

@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
-from ._catalog import resolve_catalog
+from ._catalog import resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
 from ._identify import CatalogLike, Frame, Identification, _camera, _frame, _whole
 
@@ -299,8 +299,8 @@ def simulate_image(
     ``(x0, y0, x1, y1, electrons per pixel)``, Poisson and read noise, saturation at
     ``full_well_e``, ``bits``-bit quantisation with ``gain_e_per_dn``.
     """
-    cat = resolve_catalog(catalog)
     cam = _camera(None, fov_deg, image_size)
+    cat = resolve_catalog_for(catalog, cam)
     tr = None if trail is None else ((float(trail[0]), float(trail[1]), float(trail[2]), float(trail[3])), float(trail[4]))
     img, d = _starid.simulate_image(
         cat._native, cam, _whole("seed", seed, 2**64 - 1), None if mag_limit is None else float(mag_limit),

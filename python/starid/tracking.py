@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
-from ._catalog import resolve_catalog
+from ._catalog import resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
 from ._identify import CatalogLike, Frame, Identification, _camera, _config, _frame, _magnitudes, _whole, _xy
 
@@ -93,10 +93,10 @@ class Tracker:
         config: Optional[Any] = None,
         **settings: Any,
     ) -> None:
-        cat = resolve_catalog(catalog)
         cam = _camera(camera, fov_deg, image_size)
         if cam is None:
             raise InvalidInputError("tracking needs the camera: fov_deg and image_size, or camera=")
+        cat = resolve_catalog_for(catalog, cam)
         self._camera = cam
         self._native = _starid.Tracker(
             cat._native,

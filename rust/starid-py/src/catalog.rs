@@ -20,6 +20,8 @@ pub struct PyCatalog {
     pub inner: Arc<Catalog>,
     /// Pair indexes built for it (the core's cache: each built once).
     solvers: SolverCache,
+    /// What the Python `Catalog` calls it (results name the catalogue they used).
+    name: std::sync::Mutex<Option<String>>,
 }
 
 impl PyCatalog {
@@ -28,7 +30,16 @@ impl PyCatalog {
         Self {
             solvers: SolverCache::new(inner.clone()),
             inner,
+            name: std::sync::Mutex::new(None),
         }
+    }
+
+    /// Its name, if the Python layer gave it one.
+    pub fn name(&self) -> Option<String> {
+        self.name
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
     }
 
     /// A solver whose pair index covers `max_angle_rad`, built once (with the GIL released).
@@ -213,6 +224,14 @@ impl PyCatalog {
         d.set_item("bytes", bytes)?;
         d.set_item("build_time_s", time.as_secs_f64())?;
         Ok(d)
+    }
+
+    /// Name it (the Python `Catalog` does, so that results can say which catalogue they used).
+    fn _set_name(&self, name: Option<String>) {
+        *self
+            .name
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = name;
     }
 
     /// The row of each id (the join of identified ids with the catalogue).

@@ -277,12 +277,7 @@ fn identify<'py>(
     let id = run_core(py, move || {
         solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
     })?;
-    Ok(PyIdentification::new(
-        &catalog.get().inner,
-        &id,
-        &cam,
-        f64::NAN,
-    ))
+    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN))
 }
 
 /// Identify many frames of one camera in parallel (GIL released); results in input order.
@@ -361,7 +356,7 @@ fn identify_many<'py>(
             .map_err(|_| InvalidInputError::new_err("identification thread panicked"))?
             .map_err(|e| PyStaridError(e).into())
     })?;
-    let cat = &catalog.get().inner;
+    let cat = catalog.get();
     Ok(results
         .iter()
         .map(|id| PyIdentification::new(cat, id, &cam, f64::NAN))

@@ -77,6 +77,9 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 /// false_match_probability : float
 ///     Bound on the probability that this solution is a false match (1 when not ``ok``, and
 ///     for a raw answer).
+/// catalog : str or None
+///     The name of the catalogue the ids come from (with ``catalog=None``, the one chosen for
+///     the field of view: the bundled Hipparcos to Hp 6.5, or to Hp 8 for narrow fields).
 /// verified : bool
 ///     The answer passed the shared verification. False when not ``ok``, and for a method's
 ///     raw answer with ``verify=False`` (benchmarks and research only): such ids may be wrong.
@@ -105,6 +108,7 @@ pub struct PyIdentification {
     message: Option<String>,
     hinted: bool,
     verified: bool,
+    catalog: Option<String>,
     ids: Vec<i64>,
     residuals_arcsec: Vec<f64>,
     rotation: Option<Rotation3<f64>>,
@@ -126,7 +130,7 @@ impl PyIdentification {
     /// From a core result; `camera` is the one used (or estimated), `focal_sigma_px` the 1σ of
     /// an estimated focal length (NaN when it was given).
     pub fn new(
-        catalog: &Catalog,
+        catalog: &crate::catalog::PyCatalog,
         id: &Identification,
         camera: &Camera,
         focal_sigma_px: f64,
@@ -137,7 +141,8 @@ impl PyIdentification {
             message: id.message.clone(),
             hinted: id.hinted,
             verified: id.verified,
-            ids: ids_of(catalog, &id.catalog_index),
+            catalog: catalog.name(),
+            ids: ids_of(&catalog.inner, &id.catalog_index),
             residuals_arcsec: id
                 .residuals_rad
                 .iter()
@@ -182,7 +187,7 @@ type State = (
     usize,
     String,
     Option<String>,
-    (bool, bool),
+    (bool, bool, Option<String>),
 );
 
 /// NaN as None: JSON has no NaN.
@@ -274,6 +279,11 @@ impl PyIdentification {
     fn hinted(&self) -> bool {
         self.hinted
     }
+    /// The name of the catalogue the ids come from (None for an unnamed one).
+    #[getter]
+    fn catalog(&self) -> Option<String> {
+        self.catalog.clone()
+    }
     /// Passed the shared verification (False for a raw answer of ``verify=False`` and when not
     /// ``ok``).
     #[getter]
@@ -341,7 +351,7 @@ impl PyIdentification {
             me.hypotheses,
             me.method.to_string(),
             me.message.clone(),
-            (me.hinted, me.verified),
+            (me.hinted, me.verified, me.catalog.clone()),
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
     }
@@ -360,7 +370,7 @@ impl PyIdentification {
             hypotheses,
             method,
             message,
-            (hinted, verified),
+            (hinted, verified, catalog),
         ) = state;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
@@ -400,6 +410,7 @@ impl PyIdentification {
             message,
             hinted,
             verified,
+            catalog,
             ids,
             residuals_arcsec,
             rotation,
@@ -429,6 +440,7 @@ impl PyIdentification {
         d.set_item("message", self.message.as_deref())?;
         d.set_item("hinted", self.hinted)?;
         d.set_item("verified", self.verified)?;
+        d.set_item("catalog", self.catalog.as_deref())?;
         d.set_item("ra_deg", json_float(py, ra)?)?;
         d.set_item("dec_deg", json_float(py, dec)?)?;
         d.set_item("roll_deg", json_float(py, roll)?)?;

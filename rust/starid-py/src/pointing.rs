@@ -278,7 +278,7 @@ pub fn identify_unknown_fov<'py>(
     };
     let cam = r.camera.unwrap_or(nan_camera);
     Ok(PyIdentification::new(
-        &catalog.get().inner,
+        catalog.get(),
         &r.identification,
         &cam,
         r.fit.as_ref().map_or(f64::NAN, PointingFit::focal_sigma_px),

@@ -56,12 +56,7 @@ pub fn identify_hinted<'py>(
     let id = run_core(py, move || {
         solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
     })?;
-    Ok(PyIdentification::new(
-        &catalog.get().inner,
-        &id,
-        &cam,
-        f64::NAN,
-    ))
+    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN))
 }
 
 /// The core tracker with its solver and camera.
@@ -129,10 +124,10 @@ impl PyTracker {
         });
         let step = step.map_err(PyStaridError)?;
         let d = PyDict::new(py);
-        let cat = self.catalog.bind(py).get().inner.clone();
+        let catalog = self.catalog.bind(py);
         d.set_item(
             "identification",
-            PyIdentification::new(&cat, &step.identification, &cam, f64::NAN),
+            PyIdentification::new(catalog.get(), &step.identification, &cam, f64::NAN),
         )?;
         d.set_item("mode", step.mode.as_str())?;
         d.set_item(
