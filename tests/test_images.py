@@ -152,6 +152,40 @@ def test_wcs_round_trip(bundled: starid.Catalog, mirrored: bool) -> None:
         sw.wcs_header(starid.identify(np.zeros((0, 2)), bundled, 12.0, (640, 480)), (640, 480))
 
 
+def _separations(w: object, xy: np.ndarray, cat: starid.Catalog, ids: np.ndarray) -> np.ndarray:
+    rows = cat._native.rows_of(ids.astype(np.int64))
+    ra, dec = w.all_pix2world(xy[:, 0] + 0.5, xy[:, 1] + 0.5, 1)  # type: ignore[attr-defined]
+    c = np.sin(np.radians(dec)) * np.sin(np.radians(cat.dec_deg[rows])) + np.cos(np.radians(dec)) * np.cos(
+        np.radians(cat.dec_deg[rows])
+    ) * np.cos(np.radians(ra - cat.ra_deg[rows]))
+    return np.asarray(np.degrees(np.arccos(np.clip(c, -1, 1))) * 3600)
+
+
+@pytest.mark.parametrize("mirrored", [False, True])
+def test_sip_wcs_of_a_distorted_camera(bundled: starid.Catalog, mirrored: bool) -> None:
+    import starid.pointing as sp
+    import starid.wcs as sw
+
+    size, k1 = (1024, 1024), -0.08
+    cam = starid.Camera(size, 20.0, k1=k1)
+    f = starid.simulate(bundled, 20.0, size, seed=3, noise_px=0.05, radial_k1=k1, mirrored=mirrored)
+    res = starid.identify(f.xy, bundled, camera=cam, brightness_order=False)
+    assert res.ok and res.mirrored == mirrored
+    m = res.ids >= 0
+    h = sw.wcs_header(res, size, camera=cam)
+    assert h["CTYPE1"] == "RA---TAN-SIP" and h["A_ORDER"] == 5 and h["AP_3_0"] == pytest.approx(k1 / cam.focal_length_px**2)
+    sep = _separations(sw.wcs(res, size, camera=cam), f.xy[m], bundled, res.ids[m])
+    # Every identified centroid lands on its star within the identification's own residuals.
+    assert np.allclose(sep, res.residuals_arcsec[m], atol=0.05)
+    # Without the distortion terms the corners are off by arcminutes.
+    assert _separations(sw.wcs(res, size), f.xy[m], bundled, res.ids[m]).max() > 60.0
+    # A refined fit (focal length, principal point, k1) carries its own camera into the WCS.
+    fit = sp.refine(res, f.xy, bundled, size, fit_principal_point=True, fit_k1=True)
+    assert abs(fit.k1 - k1) < 0.01
+    sep_fit = _separations(sw.wcs(fit, size), f.xy[m], bundled, res.ids[m])
+    assert np.sqrt(np.mean(sep_fit**2)) < 3 * max(fit.rms_px, 0.05) * 20.0 * 3600 / 1024
+
+
 # A header-only WCS file (as solve-field writes) has no image axes, which astropy remarks on.
 @pytest.mark.filterwarnings("ignore::astropy.wcs.FITSFixedWarning")
 def test_cli_writes_a_wcs_file(tmp_path: Path, bundled: starid.Catalog) -> None:

@@ -71,6 +71,8 @@ class ImageIdentification:
 
     identification: Identification
     centroids: Centroids
+    #: The camera given to identify it, if any (its principal point and ``k1`` go into the WCS).
+    camera: Optional[Any] = None
 
     @property
     def ok(self) -> bool:
@@ -81,13 +83,13 @@ class ImageIdentification:
         """The FITS WCS keywords (TAN) of the identified image (see :mod:`starid.wcs`)."""
         from .wcs import wcs_header
 
-        return wcs_header(self.identification, self.centroids.image_size)
+        return wcs_header(self.identification, self.centroids.image_size, self.camera)
 
     def wcs(self) -> Any:
         """The ``astropy.wcs.WCS`` of the identified image (``pip install starid[fits]``)."""
         from .wcs import wcs
 
-        return wcs(self.identification, self.centroids.image_size)
+        return wcs(self.identification, self.centroids.image_size, self.camera)
 
     def plot(self, image: Union[npt.ArrayLike, PathLike], path: Optional[PathLike] = None, *, catalog: CatalogLike = None, dpi: int = 100) -> Any:
         """The image annotated with this identification (see :func:`starid.plot.annotate`;
@@ -270,7 +272,7 @@ def identify_image(
         res = identify(c.xy, catalog, magnitudes=mags, **kwargs)
     else:
         res = identify(c.xy, catalog, fov_deg, c.image_size, magnitudes=mags, **kwargs)
-    return ImageIdentification(res, c)
+    return ImageIdentification(res, c, kwargs.get("camera"))
 
 
 def simulate_image(

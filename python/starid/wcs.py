@@ -15,45 +15,71 @@ y + 0.5)`` exactly. Astropy, ds9 and other astronomy tools read the header:
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
 from ._errors import InvalidInputError
-from ._identify import Identification
 
 __all__ = ["wcs", "wcs_header"]
 
 
-def wcs_header(result: Identification, image_size: tuple[float, float]) -> dict[str, Any]:
-    """The WCS keywords (TAN) of an identified frame of ``image_size`` (width, height) pixels,
-    as a dict (``astropy.io.fits.Header(wcs_header(...))`` makes a header of it). The principal
-    point is the sensor centre, as identification assumes."""
-    if not result.ok or result.rotation_matrix is None:
+def _camera_terms(solution: Any, camera: Any, w: float, h: float) -> tuple[float, float, float, float]:
+    """Focal length, principal point (in the image's own pixels) and ``k1`` of the solution's
+    camera: a fit's own, else the camera given, else the identification's focal length at the
+    sensor centre, no distortion."""
+    if hasattr(solution, "principal_point_px"):  # a PointingFit: already in the image's pixels
+        cx, cy = solution.principal_point_px
+        return float(solution.focal_px), float(cx), float(cy), float(solution.k1)
+    if camera is not None:
+        cx, cy = camera.principal_point
+        # A mirrored frame is seen by the camera with x reversed (x -> W - x).
+        return float(camera.focal_length_px), float(w - cx if solution.mirrored else cx), float(cy), float(camera.k1)
+    return float(solution.focal_px), w / 2, h / 2, 0.0
+
+
+def wcs_header(solution: Any, image_size: tuple[float, float], camera: Optional[Any] = None) -> dict[str, Any]:
+    """The WCS keywords of an identified frame of ``image_size`` (width, height) pixels, as a
+    dict (``astropy.io.fits.Header(wcs_header(...))`` makes a header of it).
+
+    ``solution`` is an :class:`~starid.Identification` or a :class:`starid.pointing.PointingFit`
+    (whose fitted focal length, principal point and ``k1`` are used). ``camera``, a
+    :class:`starid.Camera`, gives the principal point and ``k1`` of an identification made with
+    it; by default the principal point is the sensor centre. TAN projection; with radial
+    distortion (``k1`` not 0), ``RA---TAN-SIP`` with the SIP polynomials of starid's model
+    (pixel = c + f (u, v)(1 + k1 (u² + v²))): ``A``/``B`` to order 5 (distorted → ideal,
+    the series inverse) and ``AP``/``BP`` to order 3 (ideal → distorted, exact).
+    """
+    if (hasattr(solution, "ok") and not solution.ok) or getattr(solution, "rotation_matrix", None) is None:
         raise InvalidInputError("the identification has no solution to describe")
     w, h = (float(v) for v in image_size)
     if not (w >= 1 and h >= 1 and math.isfinite(w) and math.isfinite(h)):
         raise InvalidInputError(f"image_size must be positive, got {image_size!r}")
-    r = np.asarray(result.rotation_matrix)
+    f, cx, cy, k1 = _camera_terms(solution, camera, w, h)
+    if not (math.isfinite(f) and f > 0):
+        raise InvalidInputError(f"the solution has no focal length (got {f})")
+    r = np.asarray(solution.rotation_matrix)
     x_axis, y_axis = r[0], r[1]  # camera axes in ICRS
-    ra, dec = math.radians(result.ra_deg), math.radians(result.dec_deg)
+    # The reference point is the optical axis (the principal point), where the camera's +z is.
+    z = r[2]
+    ra = math.atan2(z[1], z[0]) % (2 * math.pi)
+    dec = math.asin(max(-1.0, min(1.0, z[2])))
     east = np.array([-math.sin(ra), math.cos(ra), 0.0])
     north = np.array([-math.sin(dec) * math.cos(ra), -math.sin(dec) * math.sin(ra), math.cos(dec)])
-    f = float(result.focal_px)
     # A camera direction (u, v, 1) has standard coordinates (u X·e + v Y·e, u X·n + v Y·n).
-    sign = -1.0 if result.mirrored else 1.0  # a mirrored frame reads x reversed
+    sign = -1.0 if solution.mirrored else 1.0  # a mirrored frame reads x reversed
     scale = math.degrees(1.0) / f
     cd = scale * np.array([[sign * x_axis @ east, y_axis @ east], [sign * x_axis @ north, y_axis @ north]])
-    return {
+    header: dict[str, Any] = {
         "WCSAXES": 2,
         "CTYPE1": "RA---TAN",
         "CTYPE2": "DEC--TAN",
         "CUNIT1": "deg",
         "CUNIT2": "deg",
-        "CRPIX1": w / 2 + 0.5,
-        "CRPIX2": h / 2 + 0.5,
-        "CRVAL1": float(result.ra_deg),
-        "CRVAL2": float(result.dec_deg),
+        "CRPIX1": cx + 0.5,
+        "CRPIX2": cy + 0.5,
+        "CRVAL1": math.degrees(ra),
+        "CRVAL2": math.degrees(dec),
         "CD1_1": float(cd[0, 0]),
         "CD1_2": float(cd[0, 1]),
         "CD2_1": float(cd[1, 0]),
@@ -62,13 +88,33 @@ def wcs_header(result: Identification, image_size: tuple[float, float]) -> dict[
         "IMAGEW": int(round(w)),
         "IMAGEH": int(round(h)),
     }
+    if k1 != 0.0:
+        header.update(_sip(k1, f))
+    return header
 
 
-def wcs(result: Identification, image_size: tuple[float, float]) -> Any:
+def _sip(k1: float, f: float) -> dict[str, Any]:
+    """SIP terms of the radial model on pixel offsets (x, y) from the principal point, with
+    ρ² = (x² + y²) / f²: ideal = distorted (1 − k1 ρ² + 3 k1² ρ⁴ + ...), distorted = ideal
+    (1 + k1 ρ_ideal²)."""
+    a3 = -k1 / f**2
+    a5 = 3 * k1**2 / f**4
+    terms: dict[str, Any] = {"CTYPE1": "RA---TAN-SIP", "CTYPE2": "DEC--TAN-SIP", "A_ORDER": 5, "B_ORDER": 5, "AP_ORDER": 3, "BP_ORDER": 3}
+    # x (x² + y²) and x (x² + y²)²; B the same with x and y exchanged.
+    for (p, q), c in {(3, 0): a3, (1, 2): a3, (5, 0): a5, (3, 2): 2 * a5, (1, 4): a5}.items():
+        terms[f"A_{p}_{q}"] = c
+        terms[f"B_{q}_{p}"] = c
+    for (p, q), c in {(3, 0): k1 / f**2, (1, 2): k1 / f**2}.items():
+        terms[f"AP_{p}_{q}"] = c
+        terms[f"BP_{q}_{p}"] = c
+    return terms
+
+
+def wcs(solution: Any, image_size: tuple[float, float], camera: Optional[Any] = None) -> Any:
     """An ``astropy.wcs.WCS`` of the identified frame (see :func:`wcs_header`)."""
     try:
         from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
         from astropy.wcs import WCS  # type: ignore[import-untyped,import-not-found,unused-ignore]
     except ImportError as e:
         raise ImportError("a WCS object needs astropy: pip install 'starid[fits]'") from e
-    return WCS(fits.Header(wcs_header(result, image_size)))
+    return WCS(fits.Header(wcs_header(solution, image_size, camera)))
