@@ -214,6 +214,10 @@ def test_catalog_none_is_deep_enough_for_the_field() -> None:
     assert res.ok and res.catalog == deep.name and res.to_dict()["catalog"] == deep.name
     known = res.ids >= 0
     assert np.array_equal(res.ids[known], frame.true_ids[known])
+    # Refinement finds the stars in the catalogue the result names.
+    import starid.pointing as sp
+
+    assert abs(sp.refine(res, frame.xy, image_size=(1024, 1024)).fov_deg - 6.0) < 0.01
     wide = starid.identify(starid.simulate(seed=1).xy, fov_deg=12.0, image_size=(512, 512))
     assert wide.catalog == shallow.name
     # An explicit catalogue is used as given, and named.

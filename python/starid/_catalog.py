@@ -23,6 +23,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 _default: Optional["Catalog"] = None
 _deep: Optional["Catalog"] = None
+DEEP_NAME = "Hipparcos Hp<=8 J2000 (bundled)"
 
 #: With ``catalog=None``, the deep bundled catalogue is used when the default one holds fewer
 #: stars than this in a field of the camera's size on average.
@@ -244,7 +245,7 @@ class Catalog:
                     z["ra_mas"] / 3.6e6,
                     z["dec_mas"] / 3.6e6,
                     z["mag_mmag"] / 1000.0,
-                    name="Hipparcos Hp<=8 J2000 (bundled)",
+                    name=DEEP_NAME,
                 )
         return _deep
 
@@ -419,6 +420,14 @@ def resolve_catalog_for(catalog: Union["Catalog", PathLike, None], camera: Any) 
     ``starid.Camera``; None: the default catalogue)."""
     if catalog is None and camera is not None:
         return catalog_for(camera.fov_deg, camera.image_size)
+    return resolve_catalog(catalog)
+
+
+def resolve_catalog_of(catalog: Union["Catalog", PathLike, None], result: Any) -> "Catalog":
+    """As :func:`resolve_catalog`, but ``None`` → the bundled catalogue ``result`` (an
+    identification) was made with, by its ``catalog`` name."""
+    if catalog is None and getattr(result, "catalog", None) == DEEP_NAME:
+        return Catalog.deep()
     return resolve_catalog(catalog)
 
 

@@ -20,7 +20,7 @@ from typing import Any, Optional, Union
 import numpy as np
 import numpy.typing as npt
 
-from ._catalog import resolve_catalog
+from ._catalog import resolve_catalog_of
 from ._errors import InvalidInputError
 from ._identify import CatalogLike, Identification
 
@@ -107,7 +107,7 @@ def annotate(
         raise InvalidInputError(f"xy must be ({len(ident.ids)}, 2) like the identification's ids, got {spots.shape}")
     if not (isinstance(dpi, int) and 10 <= dpi <= 1000):
         raise InvalidInputError(f"dpi must be an integer in [10, 1000], got {dpi!r}")
-    cat = resolve_catalog(catalog)
+    cat = resolve_catalog_of(catalog, ident)
     ids = np.asarray(ident.ids)
     known = ids >= 0
     mags = np.full(len(ids), np.nan)

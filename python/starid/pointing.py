@@ -34,7 +34,7 @@ import numpy.typing as npt
 
 from . import _starid
 from ._errors import InvalidInputError
-from ._catalog import Catalog, resolve_catalog
+from ._catalog import Catalog, resolve_catalog, resolve_catalog_of
 from ._identify import Identification, _image_size, _xy
 
 __all__ = [
@@ -319,7 +319,7 @@ def refine(
     if not result.ok:
         raise InvalidInputError("the identification has no solution to refine")
     w, h = _image_size(image_size)
-    cat = resolve_catalog(catalog)
+    cat = resolve_catalog_of(catalog, result)
     a = _xy(xy)
     if a.shape[0] != len(result.ids):
         raise InvalidInputError(f"xy has {a.shape[0]} rows but the identification has {len(result.ids)} ids")
