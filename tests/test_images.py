@@ -243,3 +243,18 @@ def test_cli_annotates_an_image(tmp_path: Path, capsys: pytest.CaptureFixture[st
     with Image.open(out) as im:
         assert im.size == (512, 384)
     assert main(["identify", str(png), str(png), "--fov-deg", "12", "--annotate", str(out)]) == 2
+
+
+def test_a_close_double_is_deblended() -> None:
+    h, w = 60, 80
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    img = np.random.default_rng(4).normal(200.0, 3.0, (h, w))
+    stars = [(30.2, 28.7, 3000.0), (34.9, 30.1, 1800.0)]  # 4.9 px apart, PSF sigma 1.1 px
+    for x, y, a in stars:
+        img += a * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2 * 1.1**2))
+    c = starid.extract_centroids(img.astype(np.float32))
+    assert len(c) == 2 and all(c.flags & starid.images.FLAGS["deblended"])
+    for (x, y, _), got in zip(stars, c.xy):
+        assert np.hypot(got[0] - x, got[1] - y) < 0.3
+    whole = starid.extract_centroids(img.astype(np.float32), deblend=False, drop_flagged=False)
+    assert len(whole) == 1

@@ -392,7 +392,7 @@ class Tracker:
     def has_lock(self) -> bool: ...
 def result_columns(results: list[Identification], spots: bool = False) -> dict[str, Any]: ...
 def extract_centroids(
-    image: npt.NDArray[np.float32],
+    image: npt.NDArray[Any],
     threshold_sigma: float = 5.0,
     background_block: int = 32,
     min_pixels: int = 1,
@@ -401,6 +401,7 @@ def extract_centroids(
     max_elongation: float = 3.0,
     drop_flagged: bool = True,
     hot_pixel_ratio: float = 0.25,
+    deblend: bool = True,
 ) -> dict[str, Any]: ...
 def simulate_image(
     catalog: Catalog,

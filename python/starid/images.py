@@ -29,7 +29,7 @@ __all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "id
 PathLike = Union[str, "os.PathLike[str]"]
 
 #: Spot flags (bits of :attr:`Centroids.flags`).
-FLAGS = {"hot_pixel": 1, "saturated": 2, "elongated": 4, "border": 8}
+FLAGS = {"hot_pixel": 1, "saturated": 2, "elongated": 4, "border": 8, "deblended": 16}
 
 _PIL_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".gif", ".webp"}
 _FITS_SUFFIXES = (".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
@@ -179,13 +179,16 @@ def extract_centroids(
     max_elongation: float = 3.0,
     drop_flagged: bool = True,
     hot_pixel_ratio: float = 0.25,
+    deblend: bool = True,
 ) -> Centroids:
     """The star spots of an image (array or file), brightest first.
 
     ``dark`` (a dark or median frame) is subtracted and ``flat`` divided out (normalised to
     its median) before extraction; non-finite pixels (a clipped or masked background) take the
     image's median. Background: block medians of ``background_block`` pixels, interpolated;
-    detection ``threshold_sigma`` noise σ above it; hot pixels cleaned first.
+    detection ``threshold_sigma`` noise σ above it; hot pixels cleaned first. With ``deblend``, a
+    spot with two or three distinct peaks (a close double) is split into one spot per peak,
+    flagged ``deblended``.
 
     >>> import starid
     >>> img, _ = starid.simulate_image(image_size=(320, 240), fov_deg=8.0, seed=1)
@@ -223,6 +226,7 @@ def extract_centroids(
         float(max_elongation),
         bool(drop_flagged),
         float(hot_pixel_ratio),
+        bool(deblend),
     )
     flux = np.asarray(raw["flux"], dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):

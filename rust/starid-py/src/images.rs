@@ -34,7 +34,8 @@ fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
 /// first.
 #[pyfunction]
 #[pyo3(signature = (image, threshold_sigma=5.0, background_block=32, min_pixels=1, max_spots=2000,
-                    saturation=None, max_elongation=3.0, drop_flagged=true, hot_pixel_ratio=0.25))]
+                    saturation=None, max_elongation=3.0, drop_flagged=true, hot_pixel_ratio=0.25,
+                    deblend=true))]
 pub fn extract_centroids<'py>(
     py: Python<'py>,
     image: &Bound<'py, PyAny>,
@@ -46,6 +47,7 @@ pub fn extract_centroids<'py>(
     max_elongation: f64,
     drop_flagged: bool,
     hot_pixel_ratio: f64,
+    deblend: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     if !(hot_pixel_ratio.is_finite() && (0.0..1.0).contains(&hot_pixel_ratio)) {
         return Err(InvalidInputError::new_err(format!(
@@ -61,6 +63,7 @@ pub fn extract_centroids<'py>(
         max_elongation,
         drop_flagged,
         hot_pixel_ratio,
+        deblend,
     };
     let ex = if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u16>>() {
         extract_array(py, &a, &cfg)?
