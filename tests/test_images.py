@@ -258,3 +258,21 @@ def test_a_close_double_is_deblended() -> None:
         assert np.hypot(got[0] - x, got[1] - y) < 0.3
     whole = starid.extract_centroids(img.astype(np.float32), deblend=False, drop_flagged=False)
     assert len(whole) == 1
+
+
+def test_identify_many_takes_images(tmp_path: Path) -> None:
+    from PIL import Image
+
+    imgs = [starid.simulate_image(fov_deg=12.0, image_size=(640, 480), seed=s)[0] for s in range(4)]
+    paths = []
+    for k, im in enumerate(imgs):
+        p = tmp_path / f"{k}.png"
+        Image.fromarray(np.clip(im, 0, 65535).astype(np.uint16)).save(p)
+        paths.append(p)
+    res = starid.identify_many([*paths, tmp_path / "missing.png"], fov_deg=12.0)
+    assert [r.status for r in res] == ["identified"] * 4 + ["invalid_input"]
+    assert "missing.png" in str(res[-1].message)
+    arrays = starid.identify_many(imgs, fov_deg=12.0, threads=1)
+    assert all(r.ok for r in arrays)
+    for a, b in zip(res, arrays):
+        assert np.array_equal(a.ids, b.ids)  # the same whether read from files or given as arrays

@@ -456,6 +456,10 @@ def identify_many(
     frame. Results come in input order and
     do not depend on the thread count.
 
+    ``frames`` may also be images (paths or arrays, as :func:`identify` takes): they are read,
+    extracted and identified in parallel threads (the core releases the GIL), each with its own
+    size; an image that cannot be read gets status ``"invalid_input"`` naming it.
+
     Examples
     --------
     >>> import starid
@@ -463,6 +467,16 @@ def identify_many(
     >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
     [True, True, True, True]
     """
+    from .images import _is_image
+
+    if len(frames) > 0 and _is_image(frames[0]):
+        if magnitudes is not None:
+            raise InvalidInputError("images' magnitudes come from their spots: do not pass magnitudes=")
+        return _image_batch(
+            frames, catalog, fov_deg, threads,
+            dict(settings, camera=camera, fov_range_deg=fov_range_deg, attitude_hint=attitude_hint,
+                 hint_uncertainty_deg=hint_uncertainty_deg, hint_fallback=hint_fallback, config=config, image_size=image_size),
+        )
     cam = _camera(camera, fov_deg, image_size)
     cat = resolve_catalog_for(catalog, cam)
     if cam is None:
@@ -508,6 +522,32 @@ def identify_many(
         if r.message is not None and not r.message.startswith("frame "):
             results[i] = _invalid(f"frame {i}: {r.message}", len(r.ids))
     return results
+
+
+def _image_batch(
+    images: Sequence[Any], catalog: CatalogLike, fov_deg: Optional[float], threads: Optional[int], kwargs: dict[str, Any]
+) -> list[Identification]:
+    """Images read, extracted and identified on a thread pool, results in input order."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .images import identify_image
+
+    if threads is not None and int(threads) < 1:
+        raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
+    if kwargs.get("image_size") is None:
+        kwargs.pop("image_size")
+    cat = None if catalog is None else resolve_catalog(catalog)
+
+    def one(i: int) -> Identification:
+        try:
+            return identify_image(images[i], cat, fov_deg, **kwargs).identification
+        except (ValueError, OSError, ImportError) as e:
+            name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
+            return _invalid(str(e) if str(name) in str(e) else f"{name}: {e}", 0)
+
+    workers = (os.cpu_count() or 1) if threads is None else int(threads)
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        return list(pool.map(one, range(len(images))))
 
 
 def _hinted_batch(
