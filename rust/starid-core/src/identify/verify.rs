@@ -106,9 +106,16 @@ impl Search<'_> {
                 let d = &mut s.mag_offsets;
                 d.clear();
                 d.extend(o_m.iter().zip(r_m).map(|(o, c)| (o - r * c).norm()));
-                d.sort_unstable_by(f64::total_cmp);
+                // The median by selection (no full sort): the upper middle, and for an even
+                // count the largest of the lower half.
                 let k = d.len();
-                let median = 0.5 * (d[(k - 1) / 2] + d[k / 2]);
+                let upper = *d.select_nth_unstable_by(k / 2, f64::total_cmp).1;
+                let lower = if k % 2 == 0 {
+                    d[..k / 2].iter().copied().fold(f64::NEG_INFINITY, f64::max)
+                } else {
+                    upper
+                };
+                let median = 0.5 * (lower + upper);
                 (median / 1.1774).min(rms_sigma)
             } else {
                 rms_sigma
