@@ -206,7 +206,7 @@ pub enum Method {
     /// Geometric voting (Kolomenkin et al. 2008): observed pairs vote for catalogue stars;
     /// the best-voted assignments become hypotheses.
     Voting,
-    /// P000 Method 1 (`SEEDS.md` §1): the main star's distances to every other spot, all
+    /// P000 Method 1 (`docs/SEEDS.md` §1): the main star's distances to every other spot, all
     /// matched through the k-vector; catalogue order decides among the passing stars.
     AngularDistance,
     /// P000 Method 2 (§2): the two angles between the lines joining the main star's three

@@ -1,4 +1,4 @@
-//! The source documents' identification methods (restated in the project's `SEEDS.md`,
+//! The source documents' identification methods (restated in `docs/SEEDS.md`,
 //! sections 1–6), as methods of the shared search: each makes hypotheses in its own way, and
 //! by default every hypothesis passes the shared verification like Pyramid's and voting's.
 //! With `IdentifyConfig::verify` off (benchmarks and research only) a method's own first
