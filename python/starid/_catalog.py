@@ -410,17 +410,38 @@ def catalog_for(fov_deg: float, image_size: tuple[float, float] = (1.0, 1.0)) ->
     >>> starid.catalog_for(12.0, (512, 512)).name, starid.catalog_for(6.0, (1392, 1080)).name
     ('Hipparcos Hp<=6.5 J2000 (bundled)', 'Hipparcos Hp<=8 J2000 (bundled)')
     """
+    key = (float(fov_deg), float(image_size[0]), float(image_size[1]))
+    hit = _FIELD_CHOICE.get(key)
+    if hit is not None:
+        return hit
     shallow = Catalog.default()
-    stars = len(shallow) * field_solid_angle_sr(float(fov_deg), image_size) / (4 * math.pi)
-    return shallow if stars >= MIN_STARS_PER_FIELD else Catalog.deep()
+    stars = len(shallow) * field_solid_angle_sr(key[0], (key[1], key[2])) / (4 * math.pi)
+    chosen = shallow if stars >= MIN_STARS_PER_FIELD else Catalog.deep()
+    if len(_FIELD_CHOICE) < 256:
+        _FIELD_CHOICE[key] = chosen
+    return chosen
+
+
+# The choice per field (a few camera geometries in a process): identify() pays a dict look-up.
+_FIELD_CHOICE: "dict[tuple[float, float, float], Catalog]" = {}
 
 
 def resolve_catalog_for(catalog: Union["Catalog", PathLike, None], camera: Any) -> "Catalog":
     """As :func:`resolve_catalog`, but ``None`` → :func:`catalog_for` the camera (a
     ``starid.Camera``; None: the default catalogue)."""
     if catalog is None and camera is not None:
-        return catalog_for(camera.fov_deg, camera.image_size)
+        entry = _CAMERA_CHOICE.get(id(camera))
+        if entry is not None and entry[0] is camera:
+            return entry[1]
+        chosen = catalog_for(camera.fov_deg, camera.image_size)
+        if len(_CAMERA_CHOICE) < 256:
+            _CAMERA_CHOICE[id(camera)] = (camera, chosen)  # the camera kept alive: its id stays its own
+        return chosen
     return resolve_catalog(catalog)
+
+
+# The choice per camera object (cameras are immutable; identify() reuses a cached one).
+_CAMERA_CHOICE: "dict[int, tuple[Any, Catalog]]" = {}
 
 
 def resolve_catalog_of(catalog: Union["Catalog", PathLike, None], result: Any) -> "Catalog":

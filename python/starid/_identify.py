@@ -171,6 +171,17 @@ _DEFAULT_CONFIG = IdentifyConfig()
 _CAMERAS: dict[Any, Any] = {}
 
 
+def _is_image(x: Any) -> bool:
+    """Whether ``identify``'s first argument is an image: a path, a colour array (H, W, 3|4),
+    or a 2-D array at least 16 pixels on each side (a centroid list has 2 columns; an (N, 3)
+    one is a mistake to report, not a picture). Arrays are looked at first: the common case
+    costs a shape test."""
+    if isinstance(x, np.ndarray):
+        s = x.shape
+        return (len(s) == 3 and s[2] in (3, 4) and min(s[0], s[1]) >= 16) or (len(s) == 2 and min(s) >= 16)
+    return isinstance(x, (str, os.PathLike))
+
+
 def _config(config: Any, settings: dict[str, Any]) -> Any:
     """The native settings: ``config`` (an IdentifyConfig or None) with ``settings`` applied,
     each distinct set checked once by the core and cached."""
@@ -351,8 +362,6 @@ def identify(
     >>> res.ok, round(res.fov_deg, 2)
     (True, 17.3)
     """
-    from .images import _is_image
-
     if _is_image(xy):
         from .images import identify_image
 
@@ -467,8 +476,6 @@ def identify_many(
     >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
     [True, True, True, True]
     """
-    from .images import _is_image
-
     if len(frames) > 0 and _is_image(frames[0]):
         if magnitudes is not None:
             raise InvalidInputError("images' magnitudes come from their spots: do not pass magnitudes=")

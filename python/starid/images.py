@@ -22,6 +22,7 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
+from . import _identify as _identify_module
 from ._identify import CatalogLike, Frame, Identification, _camera, _frame, _whole
 
 __all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
@@ -320,12 +321,4 @@ def simulate_image(
     return img, frame
 
 
-def _is_image(x: Any) -> bool:
-    """Whether ``identify``'s first argument is an image: a path, a colour array (H, W, 3|4),
-    or a 2-D array at least 16 pixels on each side (a centroid list has 2 columns; an (N, 3)
-    one is a mistake to report, not a picture)."""
-    if isinstance(x, (str, os.PathLike)):
-        return True
-    if isinstance(x, np.ndarray):
-        return (x.ndim == 3 and x.shape[2] in (3, 4) and min(x.shape[:2]) >= 16) or (x.ndim == 2 and min(x.shape) >= 16)
-    return False
+_is_image = _identify_module._is_image
