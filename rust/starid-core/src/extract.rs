@@ -337,32 +337,37 @@ fn for_row_bands(
     f: impl Fn(usize, &mut [f32], &mut Vec<usize>) -> bool + Sync + Send,
 ) -> (Vec<usize>, bool) {
     let rows_per_band = (ROWS_TASK_PIXELS / width.max(1)).max(1);
-    let run = |b: usize, chunk: &mut [f32]| {
+    let parts = map_bands(out, rows_per_band * width, |b, chunk| {
         let mut list = Vec::new();
         let mut ok = true;
         for (r, row) in chunk.chunks_mut(width).enumerate() {
             ok &= f(b * rows_per_band + r, row, &mut list);
         }
         (list, ok)
-    };
-    #[cfg(feature = "parallel")]
-    if out.len() > ROWS_TASK_PIXELS {
-        use rayon::prelude::*;
-        let parts: Vec<(Vec<usize>, bool)> = out
-            .par_chunks_mut(rows_per_band * width)
-            .enumerate()
-            .map(|(b, chunk)| run(b, chunk))
-            .collect();
-        let ok = parts.iter().all(|p| p.1);
-        return (parts.into_iter().flat_map(|p| p.0).collect(), ok);
-    }
-    let parts: Vec<(Vec<usize>, bool)> = out
-        .chunks_mut(rows_per_band * width)
-        .enumerate()
-        .map(|(b, chunk)| run(b, chunk))
-        .collect();
+    });
     let ok = parts.iter().all(|p| p.1);
     (parts.into_iter().flat_map(|p| p.0).collect(), ok)
+}
+
+/// `f(b, band)` over the bands of `band` values of `out`, in parallel when there are several.
+fn map_bands<R: Send>(
+    out: &mut [f32],
+    band: usize,
+    f: impl Fn(usize, &mut [f32]) -> R + Sync + Send,
+) -> Vec<R> {
+    #[cfg(feature = "parallel")]
+    if out.len() > band {
+        use rayon::prelude::*;
+        return out
+            .par_chunks_mut(band)
+            .enumerate()
+            .map(|(b, c)| f(b, c))
+            .collect();
+    }
+    out.chunks_mut(band)
+        .enumerate()
+        .map(|(b, c)| f(b, c))
+        .collect()
 }
 
 /// `f` over items, in parallel when there are many.

@@ -1213,6 +1213,9 @@ impl Solver {
         cancel: &AtomicBool,
     ) -> Result<Vec<Identification>> {
         config.validate()?;
+        // Without the `parallel` feature every batch runs on the calling thread.
+        #[cfg(not(feature = "parallel"))]
+        let _ = threads;
         let one = |f: &FrameRef<'_>| -> Identification {
             if cancel.load(Ordering::Relaxed) {
                 // Nothing is looked at; the chunk's end reports the cancellation.
