@@ -153,3 +153,38 @@ def test_counts_out_of_range_are_typed_errors() -> None:
     ):
         with pytest.raises(starid.InvalidInputError, match="whole number"):
             call()
+
+
+def test_confirm_new_stars_keeps_a_one_frame_coincidence_unnamed() -> None:
+    """A spot placed on a catalogue star too faint to be imaged, in one frame only: named with
+    the default tracker, left unnamed with confirm_new_stars (the star was inside the last
+    frame's field and unnamed there); stars named in consecutive frames keep their names."""
+    cat = starid.Catalog.default()
+    seq = starid.simulate_sequence(cat, frames=6, rate_deg_s=0.2, mag_limit=5.8, noise_px=0.1, seed=7)
+    last = seq[-1]
+    cam = starid.Camera((512, 512), 12.0)
+    # A catalogue star fainter than the frames' limit, well inside the last frame.
+    res = starid.identify(last.xy, cat, camera=cam)
+    assert res.ok
+    faint = np.flatnonzero(cat.mag > 6.2)
+    unit = cat.unit_vectors[faint]
+    cam_v = unit @ np.asarray(res.rotation_matrix).T
+    front = cam_v[:, 2] > 0
+    px = cam.project(np.ascontiguousarray(cam_v[front])) if front.any() else np.empty((0, 2))
+    inside = (px[:, 0] > 60) & (px[:, 0] < 452) & (px[:, 1] > 60) & (px[:, 1] < 452)
+    assert inside.any()
+    star = int(cat.ids[faint[front][inside][0]])
+    spot = px[inside][0]
+    xy_last = np.vstack([last.xy, spot])
+    for confirm, expect_named in ((False, True), (True, False)):
+        tracker = starid.Tracker(cat, camera=cam, confirm_new_stars=confirm)
+        for f in seq[:-1]:
+            step = tracker.update(f.xy, f.t_s)
+        step = tracker.update(xy_last, last.t_s)
+        ids = step.identification.ids
+        assert step.mode == "tracking"
+        assert (ids[-1] == star) == expect_named
+        # The real stars keep their names either way.
+        known = ids[:-1] >= 0
+        assert known.sum() >= 0.9 * (last.true_ids >= 0).sum()
+        assert np.array_equal(ids[:-1][known], last.true_ids[known])

@@ -383,6 +383,7 @@ class Tracker:
         max_rate_deg_s: float,
         min_uncertainty_deg: float,
         fallback: bool,
+        confirm_new_stars: bool = False,
     ) -> Tracker: ...
     def update(
         self, xy: npt.NDArray[np.float64], t_s: float, magnitudes: Optional[npt.NDArray[np.float64]] = None

@@ -10,6 +10,7 @@
 //!    after 10 blank frames, the frames until lock is regained.
 //!
 //! `cargo run --release --example tracking -- [FRAMES_PER_CASE] [SEQUENCE_FRAMES_PER_RATE]`
+//! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`).
 #![allow(clippy::print_stdout)]
 
 use std::sync::Arc;
@@ -215,6 +216,7 @@ fn main() {
     // 4. Sequences.
     let mut all_frames = 0;
     let (mut all_ok, mut all_track, mut all_wrong) = (0, 0, 0);
+    let (mut all_right, mut all_real) = (0usize, 0usize);
     let mut times = Vec::new();
     for (k, rate_deg) in [0.1f64, 0.5, 1.0, 2.0, 5.0].into_iter().enumerate() {
         let seq_cfg = SequenceConfig {
@@ -233,7 +235,13 @@ fn main() {
             ..Default::default()
         };
         let seq = simulate_sequence(&catalog, &cam, &seq_cfg, 100 + k as u64).expect("sequence");
-        let mut tracker = Tracker::new(TrackerConfig::default(), cfg.clone()).expect("tracker");
+        // STARID_CONFIRM=1: a new star inside the field is named from its second frame on
+        // (TrackerConfig::confirm_new_stars).
+        let tracker_cfg = TrackerConfig {
+            confirm_new_stars: std::env::var("STARID_CONFIRM").is_ok(),
+            ..TrackerConfig::default()
+        };
+        let mut tracker = Tracker::new(tracker_cfg, cfg.clone()).expect("tracker");
         let (mut ok, mut track, mut bad, mut n, mut unid_real) = (0, 0, 0, 0, 0);
         let mut regained = None;
         for (i, f) in seq.iter().enumerate() {
@@ -257,6 +265,13 @@ fn main() {
             ok += usize::from(id.is_identified());
             track += usize::from(id.is_identified() && step.mode == TrackMode::Tracking);
             bad += wrong(id, &f.frame);
+            all_right += id
+                .catalog_index
+                .iter()
+                .zip(&f.frame.catalog_index)
+                .filter(|(a, b)| a.is_some() && a == b)
+                .count();
+            all_real += f.frame.real_stars();
             if !id.is_identified() && f.frame.real_stars() >= 2 {
                 unid_real += 1;
             }
@@ -308,9 +323,10 @@ fn main() {
         all_wrong += bad;
     }
     println!(
-        "4. all rates: {all_ok}/{all_frames} identified ({:.3} %), tracking mode {:.3} %, {all_wrong} wrong ids; per frame median {:.2} µs p99 {:.1} µs",
+        "4. all rates: {all_ok}/{all_frames} identified ({:.3} %), tracking mode {:.3} %, {all_wrong} wrong ids, {all_right} of {all_real} real stars named ({:.2} %); per frame median {:.2} µs p99 {:.1} µs",
         100.0 * all_ok as f64 / all_frames as f64,
         100.0 * all_track as f64 / all_frames as f64,
+        100.0 * all_right as f64 / all_real.max(1) as f64,
         pct(&mut times, 0.5) * 1e6,
         pct(&mut times, 0.99) * 1e6
     );

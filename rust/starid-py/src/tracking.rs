@@ -71,7 +71,7 @@ pub struct PyTracker {
 #[pymethods]
 impl PyTracker {
     #[new]
-    #[pyo3(signature = (catalog, camera, config, max_rate_deg_s, min_uncertainty_deg, fallback))]
+    #[pyo3(signature = (catalog, camera, config, max_rate_deg_s, min_uncertainty_deg, fallback, confirm_new_stars=false))]
     fn new(
         py: Python<'_>,
         catalog: &Bound<'_, PyCatalog>,
@@ -80,6 +80,7 @@ impl PyTracker {
         max_rate_deg_s: f64,
         min_uncertainty_deg: f64,
         fallback: bool,
+        confirm_new_stars: bool,
     ) -> PyResult<Self> {
         let cam = camera.get().inner;
         let tracker = Tracker::new(
@@ -87,6 +88,7 @@ impl PyTracker {
                 max_rate_rad_s: max_rate_deg_s.to_radians(),
                 min_uncertainty_rad: min_uncertainty_deg.to_radians(),
                 fallback,
+                confirm_new_stars,
             },
             config.get().inner.clone(),
         )
