@@ -63,7 +63,10 @@ def _call(f: Any, *args: Any, **kw: Any) -> None:
             "centroid_sigma_px": numbers,
             "mag_offset": numbers,
             "mag_tolerance": numbers,
-            "method": st.sampled_from(["auto", "pyramid", "voting", "nope", ""]),
+            "method": st.sampled_from(
+                ["auto", "pyramid", "voting", "angular-distance", "star-line-angle", "angle-sum", "distance-vote", "radial-vote", "nope", ""]
+            ),
+            "verify": st.one_of(st.booleans(), numbers),
         },
     ),
 )
