@@ -101,6 +101,11 @@ def test_method_databases(contest: starid.Catalog) -> None:
     assert sizes["radial-vote"]["bytes"] < sizes["angle-sum"]["bytes"] < sizes["star-line-angle"]["bytes"]
     assert sizes["star-line-angle"]["bytes"] < sizes["angular-distance"]["bytes"] == sizes["distance-vote"]["bytes"]
     assert all(s["build_time_s"] >= 0 for s in sizes.values())
+    # The solver's memory counts the tables once they are built (the neighbour rows once).
+    info = contest.index_info(12.0, (512, 512))
+    tables = sizes["star-line-angle"]["bytes"] + sizes["angle-sum"]["bytes"] - 12 * len(contest) + sizes["radial-vote"]["bytes"]
+    assert info["seed_tables_bytes"] == tables
+    assert info["memory_bytes"] >= info["pair_index_bytes"] + tables
     with pytest.raises(starid.StaridError, match="unknown method"):
         contest.method_index("guess", 12.0, (512, 512))
 

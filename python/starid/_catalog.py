@@ -301,7 +301,9 @@ class Catalog:
         the solver keeps: ``pair_index_bytes``, ``bright_index_bytes``,
         ``magnitude_index_bytes`` (the magnitude-split index a gated search builds on first
         use; 0 until then, or built now with ``magnitude_index=True``, taking
-        ``magnitude_index_build_time_s``) and their sum ``memory_bytes``.
+        ``magnitude_index_build_time_s``), ``seed_tables_bytes`` (the source documents'
+        methods' tables, 0 until one of those methods runs; see :meth:`method_index`) and their
+        sum ``memory_bytes``.
         """
         from ._identify import _camera
 

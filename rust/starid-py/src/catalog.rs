@@ -202,6 +202,7 @@ impl PyCatalog {
                 .map_or(0, starid_core::PairIndex::memory_bytes),
         )?;
         d.set_item("magnitude_index_bytes", s.magnitude_index_bytes())?;
+        d.set_item("seed_tables_bytes", s.seed_tables_bytes())?;
         d.set_item("magnitude_index_build_time_s", mag_build_s)?;
         d.set_item("build_time_s", s.build_time().as_secs_f64())?;
         Ok(d)

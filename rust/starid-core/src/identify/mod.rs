@@ -657,7 +657,8 @@ impl Solver {
         self.bright_pairs.as_ref()
     }
 
-    /// Heap memory of the pair indexes in bytes (the magnitude-split one once built).
+    /// Heap memory of the indexes in bytes: the pair indexes, and the magnitude-split index and
+    /// the source documents' tables once built.
     ///
     /// # Example
     /// ```
@@ -672,6 +673,22 @@ impl Solver {
                 .as_ref()
                 .map_or(0, PairIndex::memory_bytes)
             + self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
+            + self.seed_tables_bytes()
+    }
+
+    /// Memory of the source documents' tables, bytes; 0 until a method of theirs (or
+    /// [`Solver::seed_tables`]) builds them.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert_eq!(solver.seed_tables_bytes(), 0);
+    /// solver.seed_tables();
+    /// assert!(solver.seed_tables_bytes() > 0);
+    /// ```
+    pub fn seed_tables_bytes(&self) -> usize {
+        self.seed_tables.get().map_or(0, SeedTables::memory_bytes)
     }
 
     /// Memory of the magnitude-split index, bytes; 0 until a gated search (or

@@ -162,6 +162,12 @@ impl SeedTables {
         self.rings.len() * RING_ORDER
     }
 
+    /// Memory of all the tables, bytes (the neighbour rows counted once).
+    pub fn memory_bytes(&self) -> usize {
+        self.star_line_angle_bytes() + self.angle_sum_bytes() - self.neighbour_bytes()
+            + self.ring_bytes()
+    }
+
     fn neighbour_bytes(&self) -> usize {
         self.neighbours.len() * std::mem::size_of::<[u32; NEIGHBOURS]>()
     }
