@@ -397,8 +397,8 @@ def field_solid_angle_sr(fov_deg: float, image_size: tuple[float, float]) -> flo
     """Solid angle of a rectangular field ``fov_deg`` across the width of an ``image_size``
     sensor (a gnomonic camera): ``4 asin(sin(a/2) sin(b/2))`` for full angles ``a``, ``b``."""
     w, h = (float(v) for v in image_size)
-    f = 0.5 * w / math.tan(math.radians(fov_deg) / 2)
-    a, b = 2 * math.atan(w / (2 * f)), 2 * math.atan(h / (2 * f))
+    a = math.radians(fov_deg)
+    b = 2 * math.atan(h / w * math.tan(a / 2))
     return 4 * math.asin(math.sin(a / 2) * math.sin(b / 2))
 
 
@@ -432,18 +432,8 @@ def resolve_catalog_for(catalog: Union["Catalog", PathLike, None], camera: Any) 
     """As :func:`resolve_catalog`, but ``None`` → :func:`catalog_for` the camera (a
     ``starid.Camera``; None: the default catalogue)."""
     if catalog is None and camera is not None:
-        entry = _CAMERA_CHOICE.get(id(camera))
-        if entry is not None and entry[0] is camera:
-            return entry[1]
-        chosen = catalog_for(camera.fov_deg, camera.image_size)
-        if len(_CAMERA_CHOICE) < 256:
-            _CAMERA_CHOICE[id(camera)] = (camera, chosen)  # the camera kept alive: its id stays its own
-        return chosen
+        return catalog_for(camera.fov_deg, camera.image_size)
     return resolve_catalog(catalog)
-
-
-# The choice per camera object (cameras are immutable; identify() reuses a cached one).
-_CAMERA_CHOICE: "dict[int, tuple[Any, Catalog]]" = {}
 
 
 def resolve_catalog_of(catalog: Union["Catalog", PathLike, None], result: Any) -> "Catalog":

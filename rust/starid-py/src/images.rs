@@ -13,6 +13,15 @@ use crate::catalog::PyCatalog;
 use crate::errors::InvalidInputError;
 use crate::{outcome, run_core};
 
+/// One value of every spot as a numpy array.
+fn column<'py, T: numpy::Element>(
+    py: Python<'py>,
+    spots: &[starid_core::extract::Spot],
+    f: impl Fn(&starid_core::extract::Spot) -> T,
+) -> Bound<'py, numpy::PyArray1<T>> {
+    spots.iter().map(f).collect::<Vec<T>>().into_pyarray(py)
+}
+
 /// Extraction over a borrowed numpy image of pixel type `T` (read in place when contiguous).
 fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
     py: Python<'_>,
@@ -85,46 +94,12 @@ pub fn extract_centroids<'py>(
             .expect("2 columns")
             .into_pyarray(py),
     )?;
-    d.set_item(
-        "flux",
-        ex.spots
-            .iter()
-            .map(|s| s.flux)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "peak",
-        ex.spots
-            .iter()
-            .map(|s| s.peak)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "pixels",
-        ex.spots
-            .iter()
-            .map(|s| i64::from(s.pixels))
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "elongation",
-        ex.spots
-            .iter()
-            .map(|s| s.elongation)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "flags",
-        ex.spots
-            .iter()
-            .map(|s| s.flags)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
+    let spots = &ex.spots;
+    d.set_item("flux", column(py, spots, |s| s.flux))?;
+    d.set_item("peak", column(py, spots, |s| s.peak))?;
+    d.set_item("pixels", column(py, spots, |s| i64::from(s.pixels)))?;
+    d.set_item("elongation", column(py, spots, |s| s.elongation))?;
+    d.set_item("flags", column(py, spots, |s| s.flags))?;
     d.set_item("background", ex.background)?;
     d.set_item("noise_sigma", ex.noise_sigma)?;
     d.set_item("dropped", ex.dropped)?;

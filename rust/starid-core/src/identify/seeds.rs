@@ -193,6 +193,13 @@ impl SeedTables {
     }
 }
 
+/// The entries of `table` (sorted by `key`) whose key is within `tol` of `value`.
+fn within<T>(table: &[T], key: impl Fn(&T) -> f32, value: f64, tol: f64) -> &[T] {
+    let lo = table.partition_point(|e| f64::from(key(e)) < value - tol);
+    let hi = table.partition_point(|e| f64::from(key(e)) <= value + tol);
+    &table[lo..hi.max(lo)]
+}
+
 /// The ring (0-based) an angle falls in, `None` beyond the last.
 fn ring_of(angle: f64, width: f64) -> Option<usize> {
     let r = (angle / width).ceil() as usize;
@@ -340,12 +347,9 @@ impl Search<'_> {
                     };
                     let tol_b = 3.0 * (line(a, b).powi(2) + line(c, b).powi(2)).sqrt() + 1e-6;
                     let tol_c = 3.0 * (line(b, c).powi(2) + line(a, c).powi(2)).sqrt() + 1e-6;
-                    let t = &tables.line_angles;
-                    let lo = t.partition_point(|e| f64::from(e.0) < ab - tol_b);
-                    let hi = t.partition_point(|e| f64::from(e.0) <= ab + tol_b);
-                    self.pairs_visited += hi - lo;
-                    t[lo..hi]
-                        .iter()
+                    let near = within(&tables.line_angles, |e| e.0, ab, tol_b);
+                    self.pairs_visited += near.len();
+                    near.iter()
                         .filter(|e| (f64::from(e.1) - bc).abs() <= tol_c)
                         .map(|e| {
                             let err = (f64::from(e.0) - ab).abs() / tol_b
@@ -357,12 +361,9 @@ impl Search<'_> {
                     // Four edges, each moved by √2·σ.
                     let tol =
                         (3.0 * 2.0 * std::f64::consts::SQRT_2 * sigma_rad).to_degrees() + 1e-6;
-                    let t = &tables.sums;
-                    let lo = t.partition_point(|e| f64::from(e.0) < sum - tol);
-                    let hi = t.partition_point(|e| f64::from(e.0) <= sum + tol);
-                    self.pairs_visited += hi - lo;
-                    t[lo..hi]
-                        .iter()
+                    let near = within(&tables.sums, |e| e.0, sum, tol);
+                    self.pairs_visited += near.len();
+                    near.iter()
                         .map(|e| ((f64::from(e.0) - sum).abs(), e.1))
                         .collect()
                 };
