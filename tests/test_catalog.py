@@ -206,6 +206,9 @@ def test_catalog_none_is_deep_enough_for_the_field() -> None:
     assert starid.catalog_for(12.0, (512, 512)) is shallow
     assert starid.catalog_for(6.0, (1392, 1080)) is deep
     assert starid.catalog_for(7.0, (1000, 1000)) is deep and starid.catalog_for(7.5, (1000, 1000)) is shallow
+    for fov, size in ((0.0, (512, 512)), (float("nan"), (512, 512)), (12.0, (0, 512)), (12.0, "x")):
+        with pytest.raises(starid.InvalidInputError):
+            starid.catalog_for(fov, size)  # type: ignore[arg-type]
     # A narrow field with catalog=None: simulated and identified with the deep catalogue, and
     # the result says so.
     frame = starid.simulate(fov_deg=6.0, image_size=(1024, 1024), seed=4, noise_px=0.2, mag_limit=8.0)

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
-from ._errors import CatalogError
+from ._errors import CatalogError, InvalidInputError
 
 __all__ = ["Catalog"]
 
@@ -412,7 +412,12 @@ def catalog_for(fov_deg: float, image_size: tuple[float, float] = (1.0, 1.0)) ->
     >>> starid.catalog_for(12.0, (512, 512)).name, starid.catalog_for(6.0, (1392, 1080)).name
     ('Hipparcos Hp<=6.5 J2000 (bundled)', 'Hipparcos Hp<=8 J2000 (bundled)')
     """
-    key = (float(fov_deg), float(image_size[0]), float(image_size[1]))
+    try:
+        key = (float(fov_deg), float(image_size[0]), float(image_size[1]))
+    except (TypeError, ValueError, IndexError) as e:
+        raise InvalidInputError(f"catalog_for needs fov_deg and image_size (width, height) as numbers: {e}") from None
+    if not (0 < key[0] < 180 and all(math.isfinite(v) and v > 0 for v in key[1:])):
+        raise InvalidInputError(f"fov_deg must be in (0, 180) and image_size positive, got {fov_deg!r}, {image_size!r}")
     hit = _FIELD_CHOICE.get(key)
     if hit is not None:
         return hit
