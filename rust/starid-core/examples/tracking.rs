@@ -10,7 +10,8 @@
 //!    after 10 blank frames, the frames until lock is regained.
 //!
 //! `cargo run --release --example tracking -- [FRAMES_PER_CASE] [SEQUENCE_FRAMES_PER_RATE]`
-//! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`).
+//! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`; `STARID_PART1_ONLY=1`: stop
+//! after the hinted timing, for profiling).
 #![allow(clippy::print_stdout)]
 
 use std::sync::Arc;
@@ -110,6 +111,10 @@ fn main() {
         pct(&mut t_hint, 0.99) * 1e6,
         ml / mh
     );
+
+    if std::env::var("STARID_PART1_ONLY").is_ok() {
+        return;
+    }
 
     // 2. A wrong hint.
     let (mut ok, mut bad) = (0, 0);

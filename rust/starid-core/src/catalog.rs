@@ -503,6 +503,20 @@ impl Catalog {
         &self.vectors
     }
 
+    /// Calls `f(index, cos)` for every star within `radius` of `center` (a unit vector): through
+    /// the cube-face grid for small radii, else the zones.
+    #[inline]
+    pub(crate) fn for_each_near(
+        &self,
+        center: &Vector3<f64>,
+        radius: Radius,
+        mut f: impl FnMut(u32, f64),
+    ) {
+        if !self.cells.for_each_within(center, radius, &mut f) {
+            self.zones.for_each_within(&self.vectors, center, radius, f);
+        }
+    }
+
     /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
     /// `(index, cos_angle)`: through the cube-face grid for small radii, else the zones.
     #[inline]

@@ -29,6 +29,18 @@ impl Radius {
         let (sin, cos) = rad.sin_cos();
         Self { rad, cos, sin }
     }
+
+    /// The radius, radians.
+    #[inline]
+    pub fn rad(&self) -> f64 {
+        self.rad
+    }
+
+    /// Its cosine.
+    #[inline]
+    pub fn cos(&self) -> f64 {
+        self.cos
+    }
 }
 
 /// Zone index over a set of unit vectors.
@@ -250,17 +262,18 @@ impl CellIndex {
         }
     }
 
-    /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
-    /// `(index, cos_angle)`; `None` when the grid cannot answer (the radius exceeds
+    /// Calls `f(index, cos)` for every star within `radius` of `center` (a unit vector);
+    /// `false` (and no call) when the grid cannot answer (the radius exceeds
     /// [`CELL_QUERY_MAX_RAD`] or the search box leaves the face).
     #[inline]
-    pub fn nearest_two_within(
+    pub fn for_each_within(
         &self,
         center: &Vector3<f64>,
         radius: Radius,
-    ) -> Option<(Option<Hit>, Option<Hit>)> {
+        mut f: impl FnMut(u32, f64),
+    ) -> bool {
         if radius.rad > CELL_QUERY_MAX_RAD {
-            return None;
+            return false;
         }
         let (face, u, w) = cube_face(center);
         // A great-circle arc maps to a segment whose length is at most the arc times the largest
@@ -268,13 +281,11 @@ impl CellIndex {
         // centre and grows by less than a factor 1 + 4r over an arc r ≤ 0.05 (tan ρ < 1.6).
         let h = radius.rad * (1.0 + u * u + w * w) * (1.0 + 4.0 * radius.rad) + 1e-12;
         if u - h <= -1.0 || u + h >= 1.0 || w - h <= -1.0 || w + h >= 1.0 {
-            return None;
+            return false;
         }
         let g = self.cells_per_edge;
         let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64) as usize).min(g - 1);
         let (u0, u1, w0, w1) = (gi(u - h), gi(u + h), gi(w - h), gi(w + h));
-        let mut best: Option<Hit> = None;
-        let mut second: Option<Hit> = None;
         for cu in u0..=u1 {
             let row = (face * g + cu) * g;
             let (a, b) = (
@@ -283,19 +294,114 @@ impl CellIndex {
             );
             for slot in a..b {
                 let c = self.vectors[slot].dot(center);
-                if c < radius.cos {
-                    continue;
-                }
-                let hit = (self.stars[slot], c);
-                if best.is_none_or(|b| c > b.1) {
-                    second = best;
-                    best = Some(hit);
-                } else if second.is_none_or(|s| c > s.1) {
-                    second = Some(hit);
+                if c >= radius.cos {
+                    f(self.stars[slot], c);
                 }
             }
         }
-        Some((best, second))
+        true
+    }
+
+    /// The nearest and second nearest star within `radius` of `center` (a unit vector), as
+    /// `(index, cos_angle)`; `None` when the grid cannot answer (see
+    /// [`CellIndex::for_each_within`]).
+    #[inline]
+    pub fn nearest_two_within(
+        &self,
+        center: &Vector3<f64>,
+        radius: Radius,
+    ) -> Option<(Option<Hit>, Option<Hit>)> {
+        let mut best: Option<Hit> = None;
+        let mut second: Option<Hit> = None;
+        self.for_each_within(center, radius, |star, c| {
+            if best.is_none_or(|b| c > b.1) {
+                second = best;
+                best = Some((star, c));
+            } else if second.is_none_or(|s| c > s.1) {
+                second = Some((star, c));
+            }
+        })
+        .then_some((best, second))
+    }
+}
+
+/// Catalogue stars per steradian around every direction, read in O(1): the count within a cone
+/// of fixed radius around the centre of each cell of a cube-face grid (gnomonic coordinates, as
+/// [`CellIndex`]), divided by the cone's solid angle. A direction reads its cell's value: the
+/// density of a cone whose centre is within half a cell diagonal of its own. Built with cells at
+/// most a quarter of the radius wide; for narrower cones [`DensityMap::new`] gives `None`.
+#[derive(Debug, Clone)]
+pub struct DensityMap {
+    cells_per_edge: usize,
+    radius_rad: f64,
+    per_sr: Vec<f32>,
+}
+
+/// Most cells along a face edge of a [`DensityMap`] (6 × 64² cells, 96 kB).
+pub const DENSITY_MAP_MAX_CELLS_PER_EDGE: usize = 64;
+
+impl DensityMap {
+    /// The map for cones of `radius_rad`, `count(direction)` giving the stars within it; `None`
+    /// when cells a quarter of the radius wide would need more than
+    /// [`DENSITY_MAP_MAX_CELLS_PER_EDGE`] along a face edge (narrow fields: count directly).
+    pub fn new(radius_rad: f64, count: impl Fn(&Vector3<f64>) -> usize + Sync) -> Option<Self> {
+        // A face spans 90°; gnomonic cells are at most (π/2)/g wide (at the face centre,
+        // narrower elsewhere).
+        if radius_rad.is_nan() || radius_rad <= 0.0 {
+            return None;
+        }
+        let g = (FRAC_PI_2 / (0.25 * radius_rad)).ceil() as usize;
+        if g > DENSITY_MAP_MAX_CELLS_PER_EDGE {
+            return None;
+        }
+        let g = g.max(1);
+        let area = 2.0 * PI * (1.0 - radius_rad.cos());
+        let per_cell = |cell: usize| -> f32 {
+            let (face, rest) = (cell / (g * g), cell % (g * g));
+            let centre = |i: usize| (i as f64 + 0.5) / g as f64 * 2.0 - 1.0;
+            let (u, w) = (centre(rest / g), centre(rest % g));
+            let v = match face {
+                0 => Vector3::new(1.0, u, w),
+                1 => Vector3::new(-1.0, u, w),
+                2 => Vector3::new(w, 1.0, u),
+                3 => Vector3::new(w, -1.0, u),
+                4 => Vector3::new(u, w, 1.0),
+                _ => Vector3::new(u, w, -1.0),
+            }
+            .normalize();
+            (count(&v) as f64 / area) as f32
+        };
+        #[cfg(feature = "parallel")]
+        let per_sr = {
+            use rayon::prelude::*;
+            (0..6 * g * g).into_par_iter().map(per_cell).collect()
+        };
+        #[cfg(not(feature = "parallel"))]
+        let per_sr = (0..6 * g * g).map(per_cell).collect();
+        Some(Self {
+            cells_per_edge: g,
+            radius_rad,
+            per_sr,
+        })
+    }
+
+    /// Stars per steradian around `v` (a unit vector).
+    #[inline]
+    pub fn at(&self, v: &Vector3<f64>) -> f64 {
+        let (face, u, w) = cube_face(v);
+        let g = self.cells_per_edge;
+        let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64).max(0.0) as usize).min(g - 1);
+        f64::from(self.per_sr[(face * g + gi(u)) * g + gi(w)])
+    }
+
+    /// The cone radius the densities are counted in.
+    pub fn radius_rad(&self) -> f64 {
+        self.radius_rad
+    }
+
+    /// Heap memory, bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.per_sr.len() * std::mem::size_of::<f32>()
     }
 }
 
@@ -412,5 +518,33 @@ mod tests {
             }
         }
         assert!(answered > 7_000, "{answered}");
+    }
+    #[test]
+    fn density_map_reads_the_cell_centre_count() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let v = random_sky(&mut rng, 20_000);
+        let zones = ZoneIndex::new(&v, 1f64.to_radians());
+        let radius = 8f64.to_radians();
+        let count = |c: &Vector3<f64>| {
+            let mut n = 0;
+            zones.for_each_in_cone(&v, c, radius, |_, _| n += 1);
+            n
+        };
+        let map = DensityMap::new(radius, count).unwrap();
+        let area = 2.0 * PI * (1.0 - radius.cos());
+        // Uniform stars: every cell near the mean, and any direction near its exact count.
+        let mean = v.len() as f64 / (4.0 * PI);
+        for _ in 0..500 {
+            let d = random_sky(&mut rng, 1)[0];
+            let exact = count(&d) as f64 / area;
+            assert!(
+                (map.at(&d) - exact).abs() < 0.25 * mean,
+                "{} {exact}",
+                map.at(&d)
+            );
+        }
+        assert!(map.memory_bytes() > 0 && map.radius_rad() == radius);
+        // Too narrow a cone for the grid.
+        assert!(DensityMap::new(0.001, count).is_none());
     }
 }

@@ -18,6 +18,7 @@ use super::{
 use crate::attitude::triad;
 use crate::error::{Error, Result};
 use crate::geometry::{angle_between, rotation_angle_between, Camera};
+use crate::sky::Radius;
 
 /// Spots (brightest first) whose pairs make tracking hypotheses.
 pub const HINT_SEARCH_STARS: usize = 24;
@@ -261,6 +262,7 @@ impl Solver {
             let r_confirm = 8.0 * sigma_rad + 2e-7;
             for &mirrored in handedness {
                 let o = search.obs[usize::from(mirrored)];
+                let reach_r = Radius::new(reach);
                 // Each spot's candidates (the catalogue stars within reach of its predicted place,
                 // nearest first), looked up when a pair first needs them.
                 let mut candidates: Vec<Option<Vec<u32>>> = vec![None; k];
@@ -272,7 +274,7 @@ impl Solver {
                             .as_deref()
                             .is_none_or(|g| mags32[star as usize] <= g[s][1])
                     };
-                    catalog.for_each_in_cone(&w, reach, |star, cos| {
+                    catalog.for_each_near(&w, reach_r, |star, cos| {
                         if allowed(star) {
                             c.push((-cos, star));
                         }

@@ -47,6 +47,7 @@ use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
 use crate::kvector::PairIndex;
+use crate::sky::DensityMap;
 
 mod cache;
 mod hinted;
@@ -528,10 +529,14 @@ pub struct Solver {
     bright_pairs: Option<PairIndex>,
     /// Catalogue magnitudes as `f32`, for the magnitude gate of the search's inner loops.
     mag32: Vec<f32>,
-    /// The same, ascending.
-    mag_sorted: Vec<f32>,
+    /// The same, ascending, with a bin table for counts below a magnitude.
+    mag_sorted: SortedMags,
     /// Catalogue stars per steradian in the sparsest field (cones of half the index's angle).
     min_density_sr: f64,
+    /// Catalogue stars per steradian around any direction (cones of half the index's angle),
+    /// for the false-match bound of every verification; `None` for narrow fields, which count
+    /// their cone instead.
+    density: Option<DensityMap>,
     /// The pair index split by magnitude, built on the first magnitude-gated pass.
     mag_pairs: std::sync::OnceLock<MagPairIndex>,
     /// The source documents' tables, built on first use.
@@ -586,14 +591,17 @@ impl Solver {
             None
         };
         let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
-        let mut mag_sorted = mag32.clone();
-        mag_sorted.sort_unstable_by(f32::total_cmp);
+        let mag_sorted = SortedMags::new(&mag32);
         let min_density_sr = sparsest_density(&catalog, 0.5 * max_angle_rad);
+        let density = DensityMap::new(0.5 * max_angle_rad, |v| {
+            catalog.count_in_cone(v, 0.5 * max_angle_rad)
+        });
         Ok(Self {
             catalog,
             pairs,
             bright_pairs,
             min_density_sr,
+            density,
             mag32,
             mag_sorted,
             mag_pairs: std::sync::OnceLock::new(),
@@ -657,8 +665,8 @@ impl Solver {
         self.bright_pairs.as_ref()
     }
 
-    /// Heap memory of the indexes in bytes: the pair indexes, and the magnitude-split index and
-    /// the source documents' tables once built.
+    /// Heap memory of the indexes in bytes: the pair indexes, the density map, and the
+    /// magnitude-split index and the source documents' tables once built.
     ///
     /// # Example
     /// ```
@@ -674,6 +682,7 @@ impl Solver {
                 .map_or(0, PairIndex::memory_bytes)
             + self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
             + self.seed_tables_bytes()
+            + self.density.as_ref().map_or(0, DensityMap::memory_bytes)
     }
 
     /// Memory of the source documents' tables, bytes; 0 until a method of theirs (or
@@ -711,9 +720,11 @@ impl Solver {
     fn window_fraction(&self, windows: &[[f32; 2]]) -> f64 {
         let sorted = &self.mag_sorted;
         let n = sorted.len().max(1) as f64;
+        // Counted to the end of the window's bin: at most a bin's stars more than the exact
+        // count, so the fraction (a chance in the false-match bound) is never understated.
         let total: f64 = windows
             .iter()
-            .map(|w| sorted.partition_point(|&m| m <= w[1]) as f64 / n)
+            .map(|w| sorted.count_to_bin_end(w[1]) as f64 / n)
             .sum();
         (total / windows.len().max(1) as f64).clamp(1.0 / n, 1.0)
     }
@@ -995,14 +1006,17 @@ impl Solver {
             (Some(m), Some(off)) => {
                 let tol = config.mag_tolerance;
                 let sorted = &self.mag_sorted;
-                let fitting = m
-                    .iter()
+                // More than half the centroids have a catalogue star in their window: stop
+                // counting once that is known.
+                let need = m.len() / 2 + 1;
+                m.iter()
                     .filter(|&&mi| {
                         let (lo, hi) = ((mi - off - tol) as f32, (mi - off + tol) as f32);
-                        sorted.partition_point(|&x| x < lo) < sorted.partition_point(|&x| x <= hi)
+                        sorted.first_at_least(lo).is_some_and(|x| x <= hi)
                     })
-                    .count();
-                2 * fitting > m.len()
+                    .take(need)
+                    .count()
+                    >= need
             }
             _ => false,
         }
@@ -1308,15 +1322,32 @@ pub(crate) fn validate_centroids(
             )));
         }
     }
-    let mut sorted: Vec<usize> = (0..n).collect();
-    sorted.sort_unstable_by(|&a, &b| {
-        centroids[a][0]
-            .total_cmp(&centroids[b][0])
-            .then(centroids[a][1].total_cmp(&centroids[b][1]))
-    });
+    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; sorted
+    // as integers, on the stack for frames of up to 64 centroids.
+    let key = |c: &[f64; 2]| ((c[0] + 0.0).to_bits(), (c[1] + 0.0).to_bits());
+    let has_duplicate = |keys: &mut [(u64, u64)]| {
+        keys.sort_unstable();
+        keys.windows(2).any(|w| w[0] == w[1])
+    };
+    let duplicate = if n <= 64 {
+        let mut keys = [(0u64, 0u64); 64];
+        for (k, c) in keys.iter_mut().zip(centroids) {
+            *k = key(c);
+        }
+        has_duplicate(&mut keys[..n])
+    } else {
+        has_duplicate(&mut centroids.iter().map(key).collect::<Vec<_>>())
+    };
+    // Name the pair (rare: only for the error).
+    let mut sorted: Vec<usize> = if duplicate {
+        (0..n).collect()
+    } else {
+        Vec::new()
+    };
+    sorted.sort_unstable_by_key(|&i| key(&centroids[i]));
     for pair in sorted.windows(2) {
         let (a, b) = (centroids[pair[0]], centroids[pair[1]]);
-        if a == b {
+        if key(&a) == key(&b) {
             let (i, j) = (pair[0].min(pair[1]), pair[0].max(pair[1]));
             return Err(Error::invalid_input(format!(
                 "centroids {i} and {j} are duplicates at ({}, {})",
@@ -1363,6 +1394,70 @@ impl SideCache {
     }
 }
 
+/// Catalogue magnitudes ascending, with a table of where each of [`MAG_COUNT_BINS`] equal
+/// magnitude bins starts: a count below a magnitude (asked per centroid on every call) is a
+/// search within one bin, in cache, instead of one over the whole catalogue.
+#[derive(Debug, Clone)]
+struct SortedMags {
+    sorted: Vec<f32>,
+    lo: f32,
+    scale: f32,
+    /// `start[b]`: the stars of bins before `b`; `start[MAG_COUNT_BINS] = len`.
+    start: Vec<u32>,
+}
+
+/// Bins of [`SortedMags`].
+const MAG_COUNT_BINS: usize = 1024;
+
+impl SortedMags {
+    fn new(mags: &[f32]) -> Self {
+        let mut sorted = mags.to_vec();
+        sorted.sort_unstable_by(f32::total_cmp);
+        let (lo, hi) = (
+            sorted.first().copied().unwrap_or(0.0),
+            sorted.last().copied().unwrap_or(0.0),
+        );
+        let scale = MAG_COUNT_BINS as f32 / (hi - lo).max(1e-3);
+        let mut table = Self {
+            sorted,
+            lo,
+            scale,
+            start: Vec::new(),
+        };
+        // The bin of a magnitude never decreases with it, so `start` is a partition of `sorted`.
+        let bins: Vec<usize> = table.sorted.iter().map(|&m| table.bin(m)).collect();
+        table.start = (0..=MAG_COUNT_BINS)
+            .map(|b| bins.partition_point(|&x| x < b) as u32)
+            .collect();
+        table
+    }
+
+    fn len(&self) -> usize {
+        self.sorted.len()
+    }
+
+    #[inline]
+    fn bin(&self, m: f32) -> usize {
+        (((m - self.lo) * self.scale).max(0.0) as usize).min(MAG_COUNT_BINS - 1)
+    }
+
+    /// The smallest catalogue magnitude at least `x`, if any.
+    #[inline]
+    fn first_at_least(&self, x: f32) -> Option<f32> {
+        let b = self.bin(x);
+        let (a, e) = (self.start[b] as usize, self.start[b + 1] as usize);
+        let i = a + self.sorted[a..e].partition_point(|&m| m < x);
+        self.sorted.get(i).copied()
+    }
+
+    /// Stars in the bins up to and including `x`'s: every star with a magnitude at most `x`,
+    /// and at most a bin's more.
+    #[inline]
+    fn count_to_bin_end(&self, x: f32) -> usize {
+        self.start[self.bin(x) + 1] as usize
+    }
+}
+
 /// The search must stop: the hypothesis budget or the time ran out.
 struct SearchLimit(Status);
 
@@ -1389,6 +1484,8 @@ struct Scratch {
     /// Voting counters (centroid row × catalogue star) and the cells touched.
     votes: Vec<u16>,
     vote_touched: Vec<u32>,
+    /// The catalogue stars near each centroid under the last attitude looked up.
+    near: verify::NearCache,
 }
 
 struct Search<'a> {
@@ -1442,8 +1539,10 @@ impl<'a> Search<'a> {
         obs: [&'a [Vector3<f64>]; 2],
         magnitudes: Option<&'a [f64]>,
         order: &'a [usize],
-        scratch: Scratch,
+        mut scratch: Scratch,
     ) -> Self {
+        // The stars near centroids are held for one search only.
+        scratch.near.clear();
         Self {
             solver,
             pairs: &solver.pairs,

@@ -234,12 +234,13 @@ impl Search<'_> {
         s.matches.clear();
         s.claim.clear();
         s.ambiguous.clear();
-        for (o, v) in obs.iter().enumerate() {
-            let w = r.inverse_transform_vector(v);
+        s.near.ensure(catalog, r, obs, radius.rad());
+        for o in 0..obs.len() {
+            let two = s.near.nearest_two(o, radius);
             // In a gated pass a centroid may not be far brighter than its star (one-sided, as
             // in `drop_too_bright`: a saturated or variable star fainter than expected keeps it).
             let allowed = |star: u32| gate.is_none_or(|g| mags[star as usize] <= g[o][1]);
-            let m = match nearest_match(catalog, &w, radius, sigma_rad, allowed) {
+            let m = match nearest_match(two, sigma_rad, allowed) {
                 Nearest::Unique(star, d) => Some((star, d)),
                 Nearest::Ambiguous(a) => {
                     s.ambiguous.push((o as u32, a));
@@ -510,6 +511,14 @@ impl Search<'_> {
         }
         let half_diag = 0.5 * self.camera.diagonal_fov_rad();
         let boresight = r.inverse_transform_vector(&Vector3::z());
+        // The solver's map where its cones are about the field's (the cache serves fields of
+        // 0.8 to 1 times its index's angle), else the stars counted in the field's cone.
+        if let Some(map) = self.solver.density.as_ref().filter(|m| {
+            half_diag <= m.radius_rad() && half_diag >= DENSITY_MAP_MIN_FIELD * m.radius_rad()
+        }) {
+            let cone_sr = 2.0 * PI * (1.0 - map.radius_rad().cos());
+            return map.at(&boresight).max(1.0 / cone_sr);
+        }
         let in_field = self.solver.catalog.count_in_cone(&boresight, half_diag);
         let cone_sr = 2.0 * PI * (1.0 - half_diag.cos());
         in_field.max(1) as f64 / cone_sr
@@ -524,6 +533,9 @@ impl Search<'_> {
         }
     }
 }
+
+/// Narrowest field, as a fraction of the density map's cone radius, whose density the map gives.
+const DENSITY_MAP_MIN_FIELD: f64 = 0.75;
 
 /// Unmatched spots from which tracking checks matches against the frame's magnitude
 /// completeness.
@@ -570,27 +582,117 @@ pub(super) enum Nearest {
     Ambiguous([(u32, f64); 2]),
 }
 
-/// The nearest catalogue star to `w` within `radius` that `allowed` admits, and whether a second
-/// allowed star is nearly as likely (see [`AMBIGUITY_LOG_ODDS`]).
+/// A catalogue star near a direction: its index and distance (the sine of the angle).
+type Near = (u32, f64);
+
+/// How much wider than asked the stars near each centroid are looked up (see [`NearCache`]).
+const NEAR_CACHE_GROWTH: f64 = 2.5;
+
+/// The catalogue stars near each centroid under one attitude, looked up within a radius
+/// [`NEAR_CACHE_GROWTH`] times the match radius: a later matching pass (the refit attitude, a
+/// smaller or slightly larger radius) that moves no centroid by more than the spare radius
+/// finds every star it could match among them, and asks the catalogue nothing. A verification
+/// so looks each centroid up about once instead of once per pass.
+#[derive(Debug, Default)]
+pub(super) struct NearCache {
+    valid: bool,
+    /// The observed directions looked up (their address and length: the search's two
+    /// handednesses are two slices).
+    key: (usize, usize),
+    radius_rad: f64,
+    /// Each centroid in ICRS under the attitude looked up, and under the current pass's.
+    looked_up: Vec<Vector3<f64>>,
+    w: Vec<Vector3<f64>>,
+    /// `start[o]..start[o + 1]`: the stars near centroid `o`, with their ICRS vectors.
+    start: Vec<u32>,
+    stars: Vec<(u32, Vector3<f64>)>,
+}
+
+impl NearCache {
+    /// Forget the stars: the next pass looks every centroid up.
+    pub(super) fn clear(&mut self) {
+        self.valid = false;
+    }
+
+    /// Place every centroid of `obs` under `r` (`self.w`) and make sure the stars within
+    /// `radius` of each are held.
+    fn ensure(&mut self, catalog: &Catalog, r: &Rotation3<f64>, obs: &[Vector3<f64>], radius: f64) {
+        let key = (obs.as_ptr() as usize, obs.len());
+        self.w.clear();
+        self.w
+            .extend(obs.iter().map(|v| r.inverse_transform_vector(v)));
+        if self.valid && self.key == key {
+            // The farthest any centroid moved since the look-up, squared.
+            let moved = self
+                .w
+                .iter()
+                .zip(&self.looked_up)
+                .map(|(a, b)| (a - b).norm_squared())
+                .fold(0.0, f64::max);
+            // (A chord: the angle exceeds it by a factor 1 + θ²/24 at most, far below 1e-6.)
+            let spare = (self.radius_rad - radius) * (1.0 - 1e-6);
+            if spare >= 0.0 && moved <= spare * spare {
+                return;
+            }
+        }
+        let wide = NEAR_CACHE_GROWTH * radius;
+        let cat = catalog.vectors();
+        let around = Radius::new(wide);
+        self.start.clear();
+        self.stars.clear();
+        self.start.push(0);
+        for w in &self.w {
+            let stars = &mut self.stars;
+            catalog.for_each_near(w, around, |star, _| stars.push((star, cat[star as usize])));
+            self.start.push(self.stars.len() as u32);
+        }
+        self.looked_up.clear();
+        self.looked_up.extend_from_slice(&self.w);
+        (self.valid, self.key, self.radius_rad) = (true, key, wide);
+    }
+
+    /// The nearest two held stars within `radius` of centroid `o` (as placed by the last
+    /// `ensure`), as `catalog.nearest_two` would give them, with their distances.
+    #[inline]
+    fn nearest_two(&self, o: usize, radius: Radius) -> (Option<Near>, Option<Near>) {
+        let w = &self.w[o];
+        let (a, b) = (self.start[o] as usize, self.start[o + 1] as usize);
+        let mut best: Option<(u32, f64, usize)> = None;
+        let mut second: Option<(u32, f64, usize)> = None;
+        for (k, (star, v)) in self.stars[a..b].iter().enumerate() {
+            let c = v.dot(w);
+            if c < radius.cos() {
+                continue;
+            }
+            if best.is_none_or(|x| c > x.1) {
+                second = best;
+                best = Some((*star, c, a + k));
+            } else if second.is_none_or(|x| c > x.1) {
+                second = Some((*star, c, a + k));
+            }
+        }
+        let near =
+            |h: Option<(u32, f64, usize)>| h.map(|(s, _, k)| (s, w.cross(&self.stars[k].1).norm()));
+        (near(best), near(second))
+    }
+}
+
+/// Of the nearest two catalogue stars to a centroid, the nearest that `allowed` admits, and
+/// whether a second allowed star is nearly as likely (see [`AMBIGUITY_LOG_ODDS`]).
 fn nearest_match(
-    catalog: &Catalog,
-    w: &Vector3<f64>,
-    radius: Radius,
+    (best, second): (Option<Near>, Option<Near>),
     sigma_rad: f64,
     allowed: impl Fn(u32) -> bool,
 ) -> Nearest {
-    let cat = catalog.vectors();
-    let (best, second) = catalog.nearest_two(w, radius);
     let (best, second) = match (best, second) {
         (Some(b), s) if allowed(b.0) => (b, s.filter(|s| allowed(s.0))),
         (_, Some(s)) if allowed(s.0) => (s, None),
         _ => return Nearest::None,
     };
-    let d1 = w.cross(&cat[best.0 as usize]).norm();
-    if let Some((s2, _)) = second {
-        let d2 = w.cross(&cat[s2 as usize]).norm();
+    let d1 = best.1;
+    if let Some((s2, d2)) = second {
         if d2 * d2 - d1 * d1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
-            return Nearest::Ambiguous([(best.0, d1), (s2, d2)]);
+            return Nearest::Ambiguous([best, (s2, d2)]);
         }
     }
     Nearest::Unique(best.0, d1)
@@ -621,6 +723,28 @@ pub(super) fn unambiguous_nearest(
     Some((star, d1))
 }
 
+/// Largest `n` whose `ln n!` is tabled for [`ln_choose`].
+const LN_FACTORIAL_TABLE: usize = 4096;
+
+/// `ln C(n, m)`: from a table of `ln k!` (built once) up to [`LN_FACTORIAL_TABLE`], else summed.
+fn ln_choose(n: usize, m: usize) -> f64 {
+    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    if n <= LN_FACTORIAL_TABLE {
+        let t = TABLE.get_or_init(|| {
+            let mut t = vec![0.0; LN_FACTORIAL_TABLE + 1];
+            for k in 1..=LN_FACTORIAL_TABLE {
+                t[k] = t[k - 1] + (k as f64).ln();
+            }
+            t
+        });
+        return t[n] - t[m] - t[n - m];
+    }
+    let (nf, mf) = (n as f64, m as f64);
+    (1..=m)
+        .map(|i| ((nf - mf + i as f64) / i as f64).ln())
+        .sum()
+}
+
 /// `P(X ≥ m)` for `X ~ Binomial(n, p)`, summed in log space.
 pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
     if m == 0 {
@@ -639,9 +763,7 @@ pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
     if mf <= nf * p {
         return (1.0 - binomial_tail(n, n - m + 1, 1.0 - p)).clamp(0.0, 1.0);
     }
-    let ln_choose: f64 = (1..=m)
-        .map(|i| ((nf - mf + i as f64) / i as f64).ln())
-        .sum();
+    let ln_choose = ln_choose(n, m);
     let mut term = (ln_choose + mf * p.ln() + (nf - mf) * (-p).ln_1p()).exp();
     let ratio = p / (1.0 - p);
     let mut sum = 0.0;
