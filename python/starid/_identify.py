@@ -7,7 +7,7 @@ import math
 import os
 import secrets
 from dataclasses import dataclass, field
-from typing import Any, Optional, Sequence, Sized, Union
+from typing import Any, Optional, Sequence, Sized, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -362,6 +362,16 @@ def identify(
     >>> res.ok, round(res.fov_deg, 2)
     (True, 17.3)
     """
+    # The common call (float64 arrays, a known camera) in one native step; any other form comes
+    # back NotImplemented and takes the path below, which converts, checks or reads it.
+    if fov_range_deg is None and (camera is not None or (fov_deg is not None and image_size is not None)):
+        cam = _camera(camera, fov_deg, image_size)
+        res = _starid.identify_frame(
+            resolve_catalog_for(catalog, cam)._native, xy, magnitudes, cam, _config(config, settings),
+            attitude_hint, hint_uncertainty_deg, hint_fallback,
+        )
+        if res is not NotImplemented:
+            return cast(Identification, res)
     if _is_image(xy):
         from .images import identify_image
 

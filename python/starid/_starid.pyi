@@ -28,6 +28,7 @@ __all__ = [
     "choose_stars",
     "fit_pointing",
     "identify",
+    "identify_frame",
     "identify_hinted",
     "identify_many",
     "identify_unknown_fov",
@@ -341,6 +342,16 @@ def identify_unknown_fov(
     config: IdentifyConfig,
 ) -> Identification: ...
 
+def identify_frame(
+    catalog: Catalog,
+    xy: object,
+    magnitudes: object,
+    camera: Camera,
+    config: IdentifyConfig,
+    hint: object,
+    hint_uncertainty_deg: object,
+    hint_fallback: object,
+) -> object: ...
 def identify_hinted(
     catalog: Catalog,
     xy: npt.NDArray[np.float64],

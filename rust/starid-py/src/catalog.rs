@@ -44,7 +44,11 @@ impl PyCatalog {
 
     /// A solver whose pair index covers `max_angle_rad`, built once (with the GIL released).
     pub fn solver(&self, py: Python<'_>, max_angle_rad: f64) -> PyResult<Arc<Solver>> {
-        run_core(py, || self.solvers.solver(max_angle_rad))
+        // A built one without releasing the GIL (a look-up); building takes long.
+        match self.solvers.cached(max_angle_rad) {
+            Some(s) => Ok(s),
+            None => run_core(py, || self.solvers.solver(max_angle_rad)),
+        }
     }
 }
 

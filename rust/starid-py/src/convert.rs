@@ -8,6 +8,10 @@ use crate::errors::InvalidInputError;
 /// An (N, 2) float64 array of pixel centroids as `[x, y]` rows.
 pub fn centroids(name: &str, xy: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
     let shape = xy.shape();
+    // An empty list is an empty frame, whatever its width.
+    if shape[0] == 0 {
+        return Ok(Vec::new());
+    }
     if shape[1] != 2 {
         return Err(InvalidInputError::new_err(format!(
             "{name} must have shape (N, 2) holding (x, y) pixel centroids, got shape ({}, {})",
@@ -28,6 +32,18 @@ pub fn vector(name: &str, a: &PyReadonlyArray1<'_, f64>, len: Option<usize>) -> 
                 v.len()
             )));
         }
+    }
+    Ok(v)
+}
+
+/// A frame's magnitudes: one per centroid.
+pub fn magnitudes(m: &PyReadonlyArray1<'_, f64>, n: usize) -> PyResult<Vec<f64>> {
+    let v: Vec<f64> = m.as_array().iter().copied().collect();
+    if v.len() != n {
+        return Err(InvalidInputError::new_err(format!(
+            "magnitudes has {} values for {n} centroids",
+            v.len()
+        )));
     }
     Ok(v)
 }

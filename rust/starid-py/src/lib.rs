@@ -19,7 +19,9 @@ mod tracking;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
@@ -270,7 +272,7 @@ fn identify<'py>(
     let cam = camera.get().inner;
     let centroids = convert::centroids("xy", &xy)?;
     let mags = magnitudes
-        .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
+        .map(|m| convert::magnitudes(&m, centroids.len()))
         .transpose()?;
     let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
     let cfg = config.get().inner.clone();
@@ -278,6 +280,80 @@ fn identify<'py>(
         solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
     })?;
     Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN))
+}
+
+/// `identify`'s common call in one native step: centroids as a float64 (N, 2) array,
+/// magnitudes as None or a float64 1-D array, the hint None or a float64 quaternion array of 4.
+/// Any other form gives `NotImplemented`, and the Python layer converts and checks it (or reads
+/// an image) and calls again.
+#[pyfunction]
+#[pyo3(signature = (catalog, xy, magnitudes, camera, config, hint, hint_uncertainty_deg, hint_fallback))]
+fn identify_frame<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    xy: &Bound<'py, PyAny>,
+    magnitudes: &Bound<'py, PyAny>,
+    camera: &Bound<'py, PyCamera>,
+    config: &Bound<'py, PyIdentifyConfig>,
+    hint: &Bound<'py, PyAny>,
+    hint_uncertainty_deg: &Bound<'py, PyAny>,
+    hint_fallback: &Bound<'py, PyAny>,
+) -> PyResult<Py<PyAny>> {
+    let not_here = || Ok(py.NotImplemented());
+    let Ok(xy) = xy.cast::<PyArray2<f64>>() else {
+        return not_here();
+    };
+    let xy = xy.readonly();
+    // A wide 2-D array may be an image; an empty one is an empty frame.
+    if xy.shape()[1] != 2 && xy.shape()[0] != 0 {
+        return not_here();
+    }
+    let mags = if magnitudes.is_none() {
+        None
+    } else {
+        let Ok(m) = magnitudes.cast::<PyArray1<f64>>() else {
+            return not_here();
+        };
+        Some(m.readonly())
+    };
+    let hint = if hint.is_none() {
+        None
+    } else {
+        let Ok(q) = hint.cast::<PyArray1<f64>>() else {
+            return not_here();
+        };
+        let q = q.readonly();
+        let Ok(&[w, x, y, z]) = <&[f64; 4]>::try_from(q.as_slice()?) else {
+            return not_here();
+        };
+        let Ok(u) = hint_uncertainty_deg.extract::<f64>() else {
+            return not_here();
+        };
+        Some(([w, x, y, z], u, hint_fallback.is_truthy()?))
+    };
+    let cam = camera.get().inner;
+    let centroids = convert::centroids("xy", &xy)?;
+    let mags = mags
+        .map(|m| convert::magnitudes(&m, centroids.len()))
+        .transpose()?;
+    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
+    let cfg = config.get().inner.clone();
+    let id = match hint {
+        None => run_core(py, move || {
+            solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
+        })?,
+        Some((q, u, fallback)) => {
+            let hint = tracking::hint(q, u, None)?;
+            let fb = tracking::fallback_of(fallback);
+            run_core(py, move || {
+                solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
+            })?
+        }
+    };
+    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN)
+        .into_pyobject(py)?
+        .into_any()
+        .unbind())
 }
 
 /// Identify many frames of one camera in parallel (GIL released); results in input order.
@@ -469,6 +545,7 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyIdentifyConfig>()?;
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
+    m.add_function(wrap_pyfunction!(identify_frame, m)?)?;
     m.add_function(wrap_pyfunction!(identify_many, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_scene, m)?)?;

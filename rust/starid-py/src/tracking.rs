@@ -21,6 +21,25 @@ fn rotation(q: [f64; 4]) -> PyResult<Rotation3<f64>> {
     geometry::rotation_from_wxyz(q).map_err(|e| PyStaridError(e).into())
 }
 
+/// The core's hint from a quaternion `[w, x, y, z]`, an uncertainty in degrees and the
+/// handedness if known.
+pub fn hint(q: [f64; 4], uncertainty_deg: f64, mirrored: Option<bool>) -> PyResult<AttitudeHint> {
+    Ok(AttitudeHint {
+        r_icrs_to_cam: rotation(q)?,
+        uncertainty_rad: uncertainty_deg.to_radians(),
+        mirrored,
+    })
+}
+
+/// What a hinted search does when the hint explains nothing: lost in space, or no match.
+pub fn fallback_of(lost_in_space: bool) -> HintFallback {
+    if lost_in_space {
+        HintFallback::LostInSpace
+    } else {
+        HintFallback::None
+    }
+}
+
 /// Identify one frame from an attitude hint (quaternion `[w, x, y, z]` ICRS → camera).
 #[pyfunction]
 #[pyo3(signature = (catalog, xy, magnitudes, camera, config, hint_wxyz, uncertainty_deg, mirrored, fallback))]
@@ -39,20 +58,12 @@ pub fn identify_hinted<'py>(
     let cam = camera.get().inner;
     let centroids = convert::centroids("xy", &xy)?;
     let mags = magnitudes
-        .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
+        .map(|m| convert::magnitudes(&m, centroids.len()))
         .transpose()?;
-    let hint = AttitudeHint {
-        r_icrs_to_cam: rotation(hint_wxyz)?,
-        uncertainty_rad: uncertainty_deg.to_radians(),
-        mirrored,
-    };
+    let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
     let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
     let cfg = config.get().inner.clone();
-    let fb = if fallback {
-        HintFallback::LostInSpace
-    } else {
-        HintFallback::None
-    };
+    let fb = fallback_of(fallback);
     let id = run_core(py, move || {
         solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
     })?;

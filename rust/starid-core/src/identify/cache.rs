@@ -96,7 +96,18 @@ impl SolverCache {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    fn cached(&self, max_angle_rad: f64) -> Option<Arc<Solver>> {
+    /// A cached solver whose pair index covers `max_angle_rad` and is not much larger, if one
+    /// is built: never builds (so it never takes long).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cache = starid_core::identify::SolverCache::new(std::sync::Arc::new(cat));
+    /// assert!(cache.cached(0.2).is_none());
+    /// cache.solver(0.2).unwrap();
+    /// assert!(cache.cached(0.2).is_some());
+    /// ```
+    pub fn cached(&self, max_angle_rad: f64) -> Option<Arc<Solver>> {
         self.lock()
             .iter()
             .find(|s| {
