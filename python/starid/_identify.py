@@ -140,6 +140,9 @@ def _fov(fov_deg: Any) -> float:
 
 
 def _xy(xy: Any, name: str = "xy") -> npt.NDArray[np.float64]:
+    # A float64 (N, 2) array as it is (the common case: nothing to convert).
+    if type(xy) is np.ndarray and xy.dtype is _F64 and xy.ndim == 2 and xy.shape[1] == 2:
+        return xy
     try:
         a = np.ascontiguousarray(xy, dtype=np.float64)
     except (TypeError, ValueError) as e:
@@ -154,10 +157,13 @@ def _xy(xy: Any, name: str = "xy") -> npt.NDArray[np.float64]:
 def _magnitudes(magnitudes: Any, n: int) -> Optional[npt.NDArray[np.float64]]:
     if magnitudes is None:
         return None
-    try:
-        m = np.ascontiguousarray(magnitudes, dtype=np.float64).ravel()
-    except (TypeError, ValueError) as e:
-        raise InvalidInputError(f"magnitudes must be numeric: {e}") from e
+    if type(magnitudes) is np.ndarray and magnitudes.dtype is _F64 and magnitudes.ndim == 1:
+        m = magnitudes
+    else:
+        try:
+            m = np.ascontiguousarray(magnitudes, dtype=np.float64).ravel()
+        except (TypeError, ValueError) as e:
+            raise InvalidInputError(f"magnitudes must be numeric: {e}") from e
     if m.shape[0] != n:
         raise InvalidInputError(f"magnitudes has {m.shape[0]} values for {n} centroids")
     return m
@@ -168,6 +174,7 @@ IdentifyConfig = _starid.IdentifyConfig
 Camera = _starid.Camera
 
 _DEFAULT_CONFIG = IdentifyConfig()
+_F64 = np.dtype(np.float64)
 _CAMERAS: dict[Any, Any] = {}
 
 

@@ -503,17 +503,19 @@ impl Catalog {
         &self.vectors
     }
 
-    /// Calls `f(index, cos)` for every star within `radius` of `center` (a unit vector): through
-    /// the cube-face grid for small radii, else the zones.
+    /// Calls `f(index, cos, vector)` for every star within `radius` of `center` (a unit
+    /// vector): through the cube-face grid for small radii, else the zones.
     #[inline]
     pub(crate) fn for_each_near(
         &self,
         center: &Vector3<f64>,
         radius: Radius,
-        mut f: impl FnMut(u32, f64),
+        mut f: impl FnMut(u32, f64, &Vector3<f64>),
     ) {
         if !self.cells.for_each_within(center, radius, &mut f) {
-            self.zones.for_each_within(&self.vectors, center, radius, f);
+            let v = &self.vectors;
+            self.zones
+                .for_each_within(v, center, radius, |s, c| f(s, c, &v[s as usize]));
         }
     }
 

@@ -270,7 +270,7 @@ impl CellIndex {
         &self,
         center: &Vector3<f64>,
         radius: Radius,
-        mut f: impl FnMut(u32, f64),
+        mut f: impl FnMut(u32, f64, &Vector3<f64>),
     ) -> bool {
         if radius.rad > CELL_QUERY_MAX_RAD {
             return false;
@@ -293,9 +293,10 @@ impl CellIndex {
                 self.cell_start[row + w1 + 1] as usize,
             );
             for slot in a..b {
-                let c = self.vectors[slot].dot(center);
+                let v = &self.vectors[slot];
+                let c = v.dot(center);
                 if c >= radius.cos {
-                    f(self.stars[slot], c);
+                    f(self.stars[slot], c, v);
                 }
             }
         }
@@ -313,7 +314,7 @@ impl CellIndex {
     ) -> Option<(Option<Hit>, Option<Hit>)> {
         let mut best: Option<Hit> = None;
         let mut second: Option<Hit> = None;
-        self.for_each_within(center, radius, |star, c| {
+        self.for_each_within(center, radius, |star, c, _| {
             if best.is_none_or(|b| c > b.1) {
                 second = best;
                 best = Some((star, c));

@@ -323,7 +323,11 @@ fn identify_frame<'py>(
             return not_here();
         };
         let q = q.readonly();
-        let Ok(&[w, x, y, z]) = <&[f64; 4]>::try_from(q.as_slice()?) else {
+        let Some(&[w, x, y, z]) = q
+            .as_slice()
+            .ok()
+            .and_then(|q| <&[f64; 4]>::try_from(q).ok())
+        else {
             return not_here();
         };
         let Ok(u) = hint_uncertainty_deg.extract::<f64>() else {
@@ -381,7 +385,11 @@ fn identify_many<'py>(
             // A million frames take a while to convert: Ctrl-C works here too.
             py.check_signals()?;
         }
-        frames.push(convert::centroids(&format!("frame {i}"), xy)?);
+        // (The frame's name is written only for an error.)
+        frames.push(
+            convert::centroids("xy", xy)
+                .or_else(|_| convert::centroids(&format!("frame {i}"), xy))?,
+        );
     }
     let mags: Vec<Option<Vec<f64>>> = match magnitudes {
         None => vec![None; frames.len()],

@@ -274,7 +274,7 @@ impl Solver {
                             .as_deref()
                             .is_none_or(|g| mags32[star as usize] <= g[s][1])
                     };
-                    catalog.for_each_near(&w, reach_r, |star, cos| {
+                    catalog.for_each_near(&w, reach_r, |star, cos, _| {
                         if allowed(star) {
                             c.push((-cos, star));
                         }

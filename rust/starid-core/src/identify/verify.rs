@@ -106,16 +106,7 @@ impl Search<'_> {
                 let d = &mut s.mag_offsets;
                 d.clear();
                 d.extend(o_m.iter().zip(r_m).map(|(o, c)| (o - r * c).norm()));
-                // The median by selection (no full sort): the upper middle, and for an even
-                // count the largest of the lower half.
-                let k = d.len();
-                let upper = *d.select_nth_unstable_by(k / 2, f64::total_cmp).1;
-                let lower = if k % 2 == 0 {
-                    d[..k / 2].iter().copied().fold(f64::NEG_INFINITY, f64::max)
-                } else {
-                    upper
-                };
-                let median = 0.5 * (lower + upper);
+                let median = median_in_place(d);
                 (median / 1.1774).min(rms_sigma)
             } else {
                 rms_sigma
@@ -391,16 +382,11 @@ impl Search<'_> {
         if n < MAG_CHECK_MIN_MATCHES {
             return 0;
         }
-        let median = |v: &mut [f64]| -> f64 {
-            v.sort_unstable_by(f64::total_cmp);
-            let k = v.len();
-            0.5 * (v[(k - 1) / 2] + v[k / 2])
-        };
-        let offset = median(&mut s.mag_offsets);
+        let offset = median_in_place(&mut s.mag_offsets);
         for d in &mut s.mag_offsets {
             *d = (*d - offset).abs();
         }
-        let spread = 1.4826 * median(&mut s.mag_offsets);
+        let spread = 1.4826 * median_in_place(&mut s.mag_offsets);
         let limit = MAG_BRIGHTER_LIMIT.max(MAG_OUTLIER_SIGMAS * spread);
         let mut dropped = 0;
         for (m, &obs_mag) in s.matches.iter_mut().zip(mags) {
@@ -636,14 +622,13 @@ impl NearCache {
             }
         }
         let wide = NEAR_CACHE_GROWTH * radius;
-        let cat = catalog.vectors();
         let around = Radius::new(wide);
         self.start.clear();
         self.stars.clear();
         self.start.push(0);
         for w in &self.w {
             let stars = &mut self.stars;
-            catalog.for_each_near(w, around, |star, _| stars.push((star, cat[star as usize])));
+            catalog.for_each_near(w, around, |star, _, v| stars.push((star, *v)));
             self.start.push(self.stars.len() as u32);
         }
         self.looked_up.clear();
@@ -721,6 +706,19 @@ pub(super) fn unambiguous_nearest(
         }
     }
     Some((star, d1))
+}
+
+/// The median of `v` (reordered) by selection, with no full sort: the upper middle, and for an
+/// even count the mean with the largest of the lower half. `v` must not be empty.
+fn median_in_place(v: &mut [f64]) -> f64 {
+    let k = v.len();
+    let upper = *v.select_nth_unstable_by(k / 2, f64::total_cmp).1;
+    let lower = if k % 2 == 0 {
+        v[..k / 2].iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    } else {
+        upper
+    };
+    0.5 * (lower + upper)
 }
 
 /// Largest `n` whose `ln n!` is tabled for [`ln_choose`].
