@@ -894,8 +894,9 @@ impl Solver {
                 _ => None,
             }
         };
-        let gate = windows(config.mag_tolerance);
-        let gate_tight = windows(TIGHT_MAG_FRACTION * config.mag_tolerance);
+        // Made when a gated pass first needs them (most frames end in the bright pass before).
+        let gate = std::cell::OnceCell::new();
+        let gate_tight = std::cell::OnceCell::new();
         let fraction =
             |g: &Option<Vec<[f32; 2]>>| g.as_deref().map_or(1.0, |g| self.window_fraction(g));
         let mut gated_ran = false;
@@ -928,8 +929,16 @@ impl Solver {
             } else {
                 &self.pairs
             };
+            let (gate, gate_tight) = if pass.gated {
+                (
+                    gate.get_or_init(|| windows(config.mag_tolerance)),
+                    gate_tight.get_or_init(|| windows(TIGHT_MAG_FRACTION * config.mag_tolerance)),
+                )
+            } else {
+                (&None, &None)
+            };
             if pass.gated {
-                search.gate_fraction = *fraction_normal.get_or_insert_with(|| fraction(&gate));
+                search.gate_fraction = *fraction_normal.get_or_insert_with(|| fraction(gate));
                 // Gated passes search more stars: a wider angle cache.
                 let wide = pass.stars.min(n);
                 if wide > search.stride {
@@ -1486,6 +1495,8 @@ struct Scratch {
     vote_touched: Vec<u32>,
     /// The catalogue stars near each centroid under the last attitude looked up.
     near: verify::NearCache,
+    /// Which centroid claimed each catalogue star in the last matching pass.
+    claims: verify::Claims,
 }
 
 struct Search<'a> {

@@ -338,13 +338,8 @@ impl Search<'_> {
             }
         }
         // A catalogue star claimed by two centroids is ambiguous: neither gets it.
-        s.claim.sort_unstable_by_key(|c| c.0);
-        for w in 1..s.claim.len() {
-            if s.claim[w].0 == s.claim[w - 1].0 {
-                s.matches[s.claim[w].1 as usize] = None;
-                s.matches[s.claim[w - 1].1 as usize] = None;
-            }
-        }
+        s.claims
+            .unmatch_shared(&s.claim, &mut s.matches, catalog.len());
         self.collect_matched(obs)
     }
 
@@ -659,6 +654,43 @@ impl NearCache {
         let near =
             |h: Option<(u32, f64, usize)>| h.map(|(s, _, k)| (s, w.cross(&self.stars[k].1).norm()));
         (near(best), near(second))
+    }
+}
+
+/// Which centroid last claimed each catalogue star in this matching pass: the stars claimed
+/// twice found in one pass over the claims, with no sort. Stamped by pass, so nothing is cleared
+/// between passes.
+#[derive(Debug, Default)]
+pub(super) struct Claims {
+    pass: u32,
+    /// Per catalogue star: the pass that last claimed it, and the centroid.
+    stamp: Vec<(u32, u32)>,
+}
+
+impl Claims {
+    /// Unmatch every centroid of `claim` (star, centroid, distance) whose star another centroid
+    /// also claims.
+    fn unmatch_shared(
+        &mut self,
+        claim: &[(u32, u32, f64)],
+        matches: &mut [Option<(u32, f64)>],
+        n_cat: usize,
+    ) {
+        if self.stamp.len() != n_cat || self.pass == u32::MAX {
+            self.stamp.clear();
+            self.stamp.resize(n_cat, (0, 0));
+            self.pass = 0;
+        }
+        self.pass += 1;
+        for &(star, o, _) in claim {
+            let slot = &mut self.stamp[star as usize];
+            if slot.0 == self.pass {
+                matches[slot.1 as usize] = None;
+                matches[o as usize] = None;
+            } else {
+                *slot = (self.pass, o);
+            }
+        }
     }
 }
 
