@@ -213,3 +213,41 @@ def test_identify_many_takes_every_identify_argument(contest: starid.Catalog) ->
     assert res[3].status == "invalid_input" and res[3].message.startswith("frame 3")
     single = [starid.identify(f.xy, contest, image_size=(1024, 1024), fov_range_deg=(14, 20)) for f in frames]
     assert [r.focal_px for r in single] == [r.focal_px for r in res[:3]]
+
+
+def test_every_input_form_gives_the_same_answer(bundled: starid.Catalog) -> None:
+    """The common call (float64 arrays) goes to the core in one step; every other form (ints, lists,
+    views, other byte orders, a hint as a list) is converted first. All give the same answer."""
+    f = starid.simulate(bundled, 12.0, (512, 512), seed=21, noise_px=0.2, mag_noise=0.1)
+    kw = {"fov_deg": 12.0, "image_size": (512, 512)}
+    ref = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, **kw)
+    assert ref.ok
+    wide = np.zeros((len(f.xy), 4))
+    wide[:, 1:3] = f.xy
+    forms = [
+        (f.xy.tolist(), f.magnitudes.tolist()),
+        (wide[:, 1:3], f.magnitudes),  # a strided view
+        (f.xy.astype(">f8"), f.magnitudes.astype(">f8")),  # big-endian
+        (f.xy, f.magnitudes.astype(np.float32)),
+        (f.xy, f.magnitudes.reshape(-1, 1)),
+    ]
+    for xy, mags in forms:
+        res = starid.identify(xy, bundled, magnitudes=mags, **kw)
+        assert np.array_equal(res.ids, ref.ids)
+        assert np.allclose(res.quaternion, ref.quaternion, atol=1e-9)
+    q = np.asarray(f.quaternion)
+    hinted = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, attitude_hint=q, **kw)
+    listed = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, attitude_hint=q.tolist(), **kw)
+    strided = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, attitude_hint=np.repeat(q, 2)[::2], **kw)
+    assert hinted.hinted and listed.hinted and strided.hinted
+    assert np.array_equal(hinted.ids, listed.ids) and np.array_equal(hinted.ids, strided.ids)
+    # An empty list of any width is an empty frame; bad forms name what is wrong.
+    assert starid.identify(np.empty((0, 3)), bundled, **kw).status == "too_few_stars"
+    with pytest.raises(starid.InvalidInputError, match="quaternion"):
+        starid.identify(f.xy, bundled, attitude_hint=np.array([np.nan, 0.0, 0.0, 1.0]), **kw)
+    with pytest.raises(starid.InvalidInputError, match="magnitudes has"):
+        starid.identify(f.xy, bundled, magnitudes=f.magnitudes[:-1], **kw)
+    with pytest.raises(starid.InvalidInputError, match="shape"):
+        starid.identify(np.zeros((5, 3)), bundled, **kw)
+    with pytest.raises(starid.InvalidInputError, match="hint_uncertainty_deg"):
+        starid.identify(f.xy, bundled, attitude_hint=q, hint_uncertainty_deg=float("nan"), **kw)

@@ -1647,6 +1647,37 @@ mod tests {
     use super::*;
 
     #[test]
+    fn sorted_magnitudes_answer_as_a_search_of_the_whole_list() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(4);
+        // Rounded magnitudes: many ties, some on bin edges.
+        let mags: Vec<f32> = (0..5000)
+            .map(|_| (rng.random_range(-1.5f32..8.0) * 100.0).round() / 100.0)
+            .collect();
+        let table = SortedMags::new(&mags);
+        let mut sorted = mags.clone();
+        sorted.sort_unstable_by(f32::total_cmp);
+        for q in 0..4000 {
+            let x = if q % 2 == 0 {
+                sorted[rng.random_range(0..sorted.len())]
+            } else {
+                rng.random_range(-3.0f32..10.0)
+            };
+            let first = sorted.iter().copied().find(|&m| m >= x);
+            assert_eq!(table.first_at_least(x), first, "{x}");
+            let at_most = sorted.iter().filter(|&&m| m <= x).count();
+            let to_bin_end = table.count_to_bin_end(x);
+            assert!(to_bin_end >= at_most, "{x}");
+            // No more than the stars of one bin beyond.
+            let b = table.bin(x);
+            assert!(to_bin_end - at_most <= (table.start[b + 1] - table.start[b]) as usize);
+        }
+        assert_eq!(table.len(), mags.len());
+        assert_eq!(table.first_at_least(f32::INFINITY), None);
+        assert_eq!(table.count_to_bin_end(f32::INFINITY), mags.len());
+    }
+
+    #[test]
     fn binomial_tail_matches_direct_sums() {
         assert!((binomial_tail(1, 1, 0.3) - 0.3).abs() < 1e-15);
         assert!((binomial_tail(2, 1, 0.5) - 0.75).abs() < 1e-15);
