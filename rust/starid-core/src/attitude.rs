@@ -89,7 +89,7 @@ pub fn wahba_from(
             gradient += p.cross(b);
         }
         normal += Matrix3::identity() * obs_cam.len() as f64;
-        let Some(step) = normal.cholesky().map(|ch| ch.solve(&gradient)) else {
+        let Some(step) = solve_spd3(&normal, &gradient) else {
             break;
         };
         if !step.iter().all(|x| x.is_finite()) {
@@ -107,6 +107,28 @@ pub fn wahba_from(
         }
     }
     wahba_svd(obs_cam, ref_icrs)
+}
+
+/// `x` with `m x = g` for a symmetric positive-definite 3×3 `m`, by cofactors (the normal
+/// equations of a Gauss–Newton step: cheaper than a general factorisation at this size).
+/// `None` unless every leading minor is positive (where a Cholesky factorisation would fail).
+#[inline]
+fn solve_spd3(m: &Matrix3<f64>, g: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let (a, b, c) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
+    let (d, e, f) = (m[(1, 1)], m[(1, 2)], m[(2, 2)]);
+    let (c00, c01, c02) = (d * f - e * e, c * e - b * f, b * e - c * d);
+    let (c11, c12, c22) = (a * f - c * c, b * c - a * e, a * d - b * b);
+    let det = a * c00 + b * c01 + c * c02;
+    if !(a > 0.0 && c22 > 0.0 && det > 0.0) {
+        return None;
+    }
+    Some(
+        Vector3::new(
+            c00 * g.x + c01 * g.y + c02 * g.z,
+            c01 * g.x + c11 * g.y + c12 * g.z,
+            c02 * g.x + c12 * g.y + c22 * g.z,
+        ) / det,
+    )
 }
 
 /// Rotation ICRS → camera that best maps `ref_icrs[i]` onto `obs_cam[i]` (equal weights).
@@ -148,6 +170,23 @@ pub fn wahba_svd(obs_cam: &[Vector3<f64>], ref_icrs: &[Vector3<f64>]) -> Option<
 mod tests {
     use super::*;
     use nalgebra::Unit;
+
+    #[test]
+    fn the_three_by_three_solve_matches_cholesky() {
+        let m = Matrix3::new(3.0, 0.2, -0.1, 0.2, 2.5, 0.3, -0.1, 0.3, 0.05);
+        let g = Vector3::new(0.3, -1.2, 0.05);
+        let x = solve_spd3(&m, &g).unwrap();
+        let y = m.cholesky().unwrap().solve(&g);
+        assert!((x - y).norm() < 1e-12 * y.norm());
+        assert!((m * x - g).norm() < 1e-12);
+        // Not positive definite: no step.
+        assert!(solve_spd3(
+            &Matrix3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+            &g
+        )
+        .is_none());
+        assert!(solve_spd3(&Matrix3::zeros(), &g).is_none());
+    }
 
     #[test]
     fn recovers_a_rotation_exactly() {
