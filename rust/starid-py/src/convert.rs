@@ -18,6 +18,10 @@ pub fn centroids(name: &str, xy: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f6
             shape[0], shape[1]
         )));
     }
+    // A C-contiguous array (the common case) is read as one slice.
+    if let Ok(flat) = xy.as_slice() {
+        return Ok(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect());
+    }
     let a = xy.as_array();
     Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
 }
@@ -38,7 +42,10 @@ pub fn vector(name: &str, a: &PyReadonlyArray1<'_, f64>, len: Option<usize>) -> 
 
 /// A frame's magnitudes: one per centroid.
 pub fn magnitudes(m: &PyReadonlyArray1<'_, f64>, n: usize) -> PyResult<Vec<f64>> {
-    let v: Vec<f64> = m.as_array().iter().copied().collect();
+    let v: Vec<f64> = match m.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => m.as_array().iter().copied().collect(),
+    };
     if v.len() != n {
         return Err(InvalidInputError::new_err(format!(
             "magnitudes has {} values for {n} centroids",
