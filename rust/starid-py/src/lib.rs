@@ -423,17 +423,41 @@ fn identify_many<'py>(
         .collect();
     // The batch runs on a thread of its own while this one, every 20 ms, lets Python handle
     // signals: Ctrl-C cancels the frames not yet begun and raises KeyboardInterrupt at once.
+    // The wait between checks ends as soon as the batch does (a condition variable, not a sleep).
     let cancel = AtomicBool::new(false);
+    let done = (std::sync::Mutex::new(false), std::sync::Condvar::new());
     let results = std::thread::scope(|scope| -> PyResult<Vec<starid_core::Identification>> {
-        let batch =
-            scope.spawn(|| solver.identify_batch_until(&refs, &cam, &cfg, threads, &cancel));
+        let (refs, cam, cfg, cancel, done) = (&refs, &cam, &cfg, &cancel, &done);
+        let solver = &solver;
+        let batch = scope.spawn(move || {
+            let out = solver.identify_batch_until(refs, cam, cfg, threads, cancel);
+            *done
+                .0
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = true;
+            done.1.notify_all();
+            out
+        });
         while !batch.is_finished() {
             if let Err(interrupt) = py.check_signals() {
                 cancel.store(true, Ordering::Relaxed);
                 let _ = py.detach(move || batch.join());
                 return Err(interrupt);
             }
-            py.detach(|| std::thread::sleep(std::time::Duration::from_millis(20)));
+            let finished = py.detach(|| {
+                let guard = done
+                    .0
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                let (guard, _) = done
+                    .1
+                    .wait_timeout_while(guard, std::time::Duration::from_millis(20), |d| !*d)
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                *guard
+            });
+            if finished {
+                break;
+            }
         }
         batch
             .join()
