@@ -517,7 +517,11 @@ def identify_many(
     bad: dict[int, str] = {}
     for i, f in enumerate(frames):
         try:
-            a = _xy(f, f"frame {i}")
+            # float64 (N, 2) arrays as they are (no conversion, no name written unless needed).
+            if type(f) is np.ndarray and f.dtype is _F64 and f.ndim == 2 and f.shape[1] == 2:
+                a = f
+            else:
+                a = _xy(f, f"frame {i}")
             m = None if magnitudes is None else _magnitudes(magnitudes[i], a.shape[0])
         except ValueError as e:
             bad[i] = f"frame {i}: {e}"

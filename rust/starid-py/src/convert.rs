@@ -28,7 +28,10 @@ pub fn centroids(name: &str, xy: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f6
 
 /// A 1-D float64 array as a `Vec`, optionally checking its length.
 pub fn vector(name: &str, a: &PyReadonlyArray1<'_, f64>, len: Option<usize>) -> PyResult<Vec<f64>> {
-    let v: Vec<f64> = a.as_array().iter().copied().collect();
+    let v: Vec<f64> = match a.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => a.as_array().iter().copied().collect(),
+    };
     if let Some(n) = len {
         if v.len() != n {
             return Err(InvalidInputError::new_err(format!(

@@ -407,7 +407,14 @@ fn identify_many<'py>(
                 .map(|(i, (m, f))| {
                     m.as_ref()
                         .map(|m| {
-                            convert::vector(&format!("magnitudes of frame {i}"), m, Some(f.len()))
+                            // (The frame's name is written only for an error.)
+                            convert::vector("magnitudes", m, Some(f.len())).or_else(|_| {
+                                convert::vector(
+                                    &format!("magnitudes of frame {i}"),
+                                    m,
+                                    Some(f.len()),
+                                )
+                            })
                         })
                         .transpose()
                 })
