@@ -258,6 +258,39 @@ pub(crate) fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Ca
     Camera::from_fov(fov_deg.to_radians(), width_px, height_px).map_err(|e| PyStaridError(e).into())
 }
 
+/// What identifying one frame needs: the camera, the centroids and magnitudes as the core
+/// takes them (checked), the solver for the camera's field and the settings.
+pub(crate) struct FrameInputs {
+    pub cam: Camera,
+    pub centroids: Vec<[f64; 2]>,
+    pub mags: Option<Vec<f64>>,
+    pub solver: Arc<starid_core::Solver>,
+    pub cfg: IdentifyConfig,
+}
+
+pub(crate) fn frame_inputs(
+    py: Python<'_>,
+    catalog: &Bound<'_, PyCatalog>,
+    xy: &PyReadonlyArray2<'_, f64>,
+    magnitudes: Option<&PyReadonlyArray1<'_, f64>>,
+    camera: &Bound<'_, PyCamera>,
+    config: &Bound<'_, PyIdentifyConfig>,
+) -> PyResult<FrameInputs> {
+    let cam = camera.get().inner;
+    let centroids = convert::centroids("xy", xy)?;
+    let mags = magnitudes
+        .map(|m| convert::magnitudes(m, centroids.len()))
+        .transpose()?;
+    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
+    Ok(FrameInputs {
+        cam,
+        centroids,
+        mags,
+        solver,
+        cfg: config.get().inner.clone(),
+    })
+}
+
 /// Identify one frame.
 #[pyfunction]
 #[pyo3(signature = (catalog, xy, magnitudes, camera, config))]
@@ -269,13 +302,13 @@ fn identify<'py>(
     camera: &Bound<'py, PyCamera>,
     config: &Bound<'py, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
-    let cam = camera.get().inner;
-    let centroids = convert::centroids("xy", &xy)?;
-    let mags = magnitudes
-        .map(|m| convert::magnitudes(&m, centroids.len()))
-        .transpose()?;
-    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
-    let cfg = config.get().inner.clone();
+    let FrameInputs {
+        cam,
+        centroids,
+        mags,
+        solver,
+        cfg,
+    } = frame_inputs(py, catalog, &xy, magnitudes.as_ref(), camera, config)?;
     let id = run_core(py, move || {
         solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
     })?;
@@ -335,13 +368,13 @@ fn identify_frame<'py>(
         };
         Some(([w, x, y, z], u, hint_fallback.is_truthy()?))
     };
-    let cam = camera.get().inner;
-    let centroids = convert::centroids("xy", &xy)?;
-    let mags = mags
-        .map(|m| convert::magnitudes(&m, centroids.len()))
-        .transpose()?;
-    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
-    let cfg = config.get().inner.clone();
+    let FrameInputs {
+        cam,
+        centroids,
+        mags,
+        solver,
+        cfg,
+    } = frame_inputs(py, catalog, &xy, mags.as_ref(), camera, config)?;
     let id = match hint {
         None => run_core(py, move || {
             solver.identify(&centroids, mags.as_deref(), &cam, &cfg)

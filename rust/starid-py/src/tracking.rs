@@ -55,14 +55,14 @@ pub fn identify_hinted<'py>(
     mirrored: Option<bool>,
     fallback: bool,
 ) -> PyResult<PyIdentification> {
-    let cam = camera.get().inner;
-    let centroids = convert::centroids("xy", &xy)?;
-    let mags = magnitudes
-        .map(|m| convert::magnitudes(&m, centroids.len()))
-        .transpose()?;
     let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
-    let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
-    let cfg = config.get().inner.clone();
+    let crate::FrameInputs {
+        cam,
+        centroids,
+        mags,
+        solver,
+        cfg,
+    } = crate::frame_inputs(py, catalog, &xy, magnitudes.as_ref(), camera, config)?;
     let fb = fallback_of(fallback);
     let id = run_core(py, move || {
         solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)

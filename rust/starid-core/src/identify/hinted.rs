@@ -59,8 +59,10 @@ pub(super) struct HintPrior {
     uncertainty_rad: f64,
     pair_tol_rad: f64,
     /// Catalogue stars per steradian in the hinted field (the attitude moves within the
-    /// uncertainty only: counted once per call).
+    /// uncertainty only: read once per call, from the solver's density map).
     pub(super) density: f64,
+    /// The hint's attitude, where a bound near its limit counts the field's stars exactly.
+    pub(super) r_hint: Rotation3<f64>,
 }
 
 impl HintPrior {
@@ -248,7 +250,7 @@ impl Solver {
         let catalog = &*self.catalog;
         let cat = catalog.vectors();
         let mut found = None;
-        let density = search.field_density(&hint.r_icrs_to_cam);
+        let density = search.field_density(&hint.r_icrs_to_cam, false);
         let mut found_step = 0;
         'passes: for (step, &sigma_px) in ladder.iter().enumerate() {
             let sigma_rad = sigma_px / f;
@@ -257,6 +259,7 @@ impl Solver {
                 uncertainty_rad: hint.uncertainty_rad,
                 pair_tol_rad: tol,
                 density,
+                r_hint: hint.r_icrs_to_cam,
             });
             let reach = hint.uncertainty_rad + 3.0 * sigma_rad;
             let r_confirm = 8.0 * sigma_rad + 2e-7;
@@ -362,6 +365,7 @@ impl Solver {
                 uncertainty_rad: hint.uncertainty_rad,
                 pair_tol_rad: 3.0 * std::f64::consts::SQRT_2 * sigma_rad + 1e-6,
                 density,
+                r_hint: hint.r_icrs_to_cam,
             });
             let v = search.verify(found.r, found.mirrored, 8.0 * sigma_rad + 2e-7, sigma_rad);
             match search.accept(v) {

@@ -720,11 +720,9 @@ impl Solver {
     fn window_fraction(&self, windows: &[[f32; 2]]) -> f64 {
         let sorted = &self.mag_sorted;
         let n = sorted.len().max(1) as f64;
-        // Counted to the end of the window's bin: at most a bin's stars more than the exact
-        // count, so the fraction (a chance in the false-match bound) is never understated.
         let total: f64 = windows
             .iter()
-            .map(|w| sorted.count_to_bin_end(w[1]) as f64 / n)
+            .map(|w| sorted.count_at_most(w[1]) as f64 / n)
             .sum();
         (total / windows.len().max(1) as f64).clamp(1.0 / n, 1.0)
     }
@@ -1459,11 +1457,12 @@ impl SortedMags {
         self.sorted.get(i).copied()
     }
 
-    /// Stars in the bins up to and including `x`'s: every star with a magnitude at most `x`,
-    /// and at most a bin's more.
+    /// Stars with a magnitude at most `x`.
     #[inline]
-    fn count_to_bin_end(&self, x: f32) -> usize {
-        self.start[self.bin(x) + 1] as usize
+    fn count_at_most(&self, x: f32) -> usize {
+        let b = self.bin(x);
+        let (a, e) = (self.start[b] as usize, self.start[b + 1] as usize);
+        a + self.sorted[a..e].partition_point(|&m| m <= x)
     }
 }
 
@@ -1666,15 +1665,12 @@ mod tests {
             let first = sorted.iter().copied().find(|&m| m >= x);
             assert_eq!(table.first_at_least(x), first, "{x}");
             let at_most = sorted.iter().filter(|&&m| m <= x).count();
-            let to_bin_end = table.count_to_bin_end(x);
-            assert!(to_bin_end >= at_most, "{x}");
-            // No more than the stars of one bin beyond.
-            let b = table.bin(x);
-            assert!(to_bin_end - at_most <= (table.start[b + 1] - table.start[b]) as usize);
+            assert_eq!(table.count_at_most(x), at_most, "{x}");
         }
         assert_eq!(table.len(), mags.len());
         assert_eq!(table.first_at_least(f32::INFINITY), None);
-        assert_eq!(table.count_to_bin_end(f32::INFINITY), mags.len());
+        assert_eq!(table.count_at_most(f32::INFINITY), mags.len());
+        assert_eq!(table.count_at_most(f32::NEG_INFINITY), 0);
     }
 
     #[test]

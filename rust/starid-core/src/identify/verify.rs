@@ -189,8 +189,15 @@ impl Search<'_> {
         if matched < self.config.min_matches {
             return None;
         }
-        let tail = self.match_tail(&r, n, matched, radius);
-        if self.hypotheses as f64 * tail > self.config.max_false_match_prob {
+        // The density map's value decides only where the answer does not hang on it: a bound
+        // within DENSITY_RECHECK of the limit either way is recomputed from the field's own count.
+        let limit = self.config.max_false_match_prob;
+        let mut tail = self.match_tail(&r, n, matched, radius, false);
+        let bound = self.hypotheses as f64 * tail;
+        if bound > limit / DENSITY_RECHECK && bound < limit * DENSITY_RECHECK {
+            tail = self.match_tail(&r, n, matched, radius, true);
+        }
+        if self.hypotheses as f64 * tail > limit {
             return None;
         }
         Some(Verified {
@@ -296,6 +303,13 @@ impl Search<'_> {
                         },
                         _ => continue,
                     };
+                // Two centroids and two stars only: with a third star nearly as likely as the
+                // nearest for either centroid, the pair's two assignments are not the only ones.
+                if s.near.third_as_likely(oa as usize, radius, decisive)
+                    || s.near.third_as_likely(ob as usize, radius, decisive)
+                {
+                    continue;
+                }
                 let wa = r.inverse_transform_vector(&obs[oa as usize]);
                 let wb = r.inverse_transform_vector(&obs[ob as usize]);
                 let d = |w: &Vector3<f64>, star: u32| w.cross(&cat[star as usize]).norm();
@@ -460,8 +474,9 @@ impl Search<'_> {
         n: usize,
         matched: usize,
         radius: f64,
+        exact: bool,
     ) -> f64 {
-        let density = self.field_density(r);
+        let density = self.field_density(r, exact);
         // In a gated pass a chance match must also fall in the centroid's magnitude window: the
         // mean chance over the centroids bounds the tail (Hoeffding 1956, for counts above the mean).
         let frac = if self.gate.is_some() {
@@ -485,17 +500,23 @@ impl Search<'_> {
         }
     }
 
-    /// Catalogue stars per steradian in the field the attitude `r` looks at.
-    pub(super) fn field_density(&self, r: &Rotation3<f64>) -> f64 {
-        if let Some(h) = self.hint.as_ref().filter(|h| h.density > 0.0) {
+    /// Catalogue stars per steradian in the field the attitude `r` looks at: from the solver's
+    /// map (or, tracking, the hint's field), or with `exact` the stars counted in the field's
+    /// cone.
+    pub(super) fn field_density(&self, r: &Rotation3<f64>, exact: bool) -> f64 {
+        if let Some(h) = self.hint.as_ref().filter(|h| h.density > 0.0 && !exact) {
             return h.density;
         }
         let half_diag = 0.5 * self.camera.diagonal_fov_rad();
+        // Tracking counts the hint's field: the attitude moves within the uncertainty only.
+        let r = self.hint.as_ref().map_or(r, |h| &h.r_hint);
         let boresight = r.inverse_transform_vector(&Vector3::z());
         // The solver's map where its cones are about the field's (the cache serves fields of
         // 0.8 to 1 times its index's angle), else the stars counted in the field's cone.
         if let Some(map) = self.solver.density.as_ref().filter(|m| {
-            half_diag <= m.radius_rad() && half_diag >= DENSITY_MAP_MIN_FIELD * m.radius_rad()
+            !exact
+                && half_diag <= m.radius_rad()
+                && half_diag >= DENSITY_MAP_MIN_FIELD * m.radius_rad()
         }) {
             let cone_sr = 2.0 * PI * (1.0 - map.radius_rad().cos());
             return map.at(&boresight).max(1.0 / cone_sr);
@@ -514,6 +535,10 @@ impl Search<'_> {
         }
     }
 }
+
+/// How near the limit (a factor, either way) a false-match bound from the density map is
+/// recomputed from the field's own star count.
+const DENSITY_RECHECK: f64 = 1e3;
 
 /// Narrowest field, as a fraction of the density map's cone radius, whose density the map gives.
 const DENSITY_MAP_MIN_FIELD: f64 = 0.75;
@@ -629,6 +654,27 @@ impl NearCache {
         self.looked_up.clear();
         self.looked_up.extend_from_slice(&self.w);
         (self.valid, self.key, self.radius_rad) = (true, key, wide);
+    }
+
+    /// Whether a third held star within `radius` of centroid `o` (as placed by the last
+    /// `ensure`) is nearly as likely as the nearest: its squared distance exceeds the nearest's
+    /// by less than `decisive`.
+    fn third_as_likely(&self, o: usize, radius: Radius, decisive: f64) -> bool {
+        let (a, b) = (self.start[o] as usize, self.start[o + 1] as usize);
+        let w = &self.w[o];
+        let mut d2 = [f64::INFINITY; 3];
+        for (_, v) in &self.stars[a..b] {
+            if v.dot(w) < radius.cos() {
+                continue;
+            }
+            let d = w.cross(v).norm_squared();
+            // Keep the three smallest, ascending.
+            if d < d2[2] {
+                d2[2] = d;
+                d2.sort_unstable_by(f64::total_cmp);
+            }
+        }
+        d2[2] - d2[0] < decisive
     }
 
     /// The nearest two held stars within `radius` of centroid `o` (as placed by the last
