@@ -368,29 +368,14 @@ fn identify_frame<'py>(
         };
         Some(([w, x, y, z], u, hint_fallback.is_truthy()?))
     };
-    let FrameInputs {
-        cam,
-        centroids,
-        mags,
-        solver,
-        cfg,
-    } = frame_inputs(py, catalog, &xy, mags.as_ref(), camera, config)?;
+    // The same calls the converting path ends in.
     let id = match hint {
-        None => run_core(py, move || {
-            solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
-        })?,
+        None => identify(py, catalog, xy, mags, camera, config)?,
         Some((q, u, fallback)) => {
-            let hint = tracking::hint(q, u, None)?;
-            let fb = tracking::fallback_of(fallback);
-            run_core(py, move || {
-                solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
-            })?
+            tracking::identify_hinted(py, catalog, xy, mags, camera, config, q, u, None, fallback)?
         }
     };
-    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN)
-        .into_pyobject(py)?
-        .into_any()
-        .unbind())
+    Ok(id.into_pyobject(py)?.into_any().unbind())
 }
 
 /// Identify many frames of one camera in parallel (GIL released); results in input order.

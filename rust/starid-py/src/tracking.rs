@@ -23,7 +23,7 @@ fn rotation(q: [f64; 4]) -> PyResult<Rotation3<f64>> {
 
 /// The core's hint from a quaternion `[w, x, y, z]`, an uncertainty in degrees and the
 /// handedness if known.
-pub fn hint(q: [f64; 4], uncertainty_deg: f64, mirrored: Option<bool>) -> PyResult<AttitudeHint> {
+fn hint(q: [f64; 4], uncertainty_deg: f64, mirrored: Option<bool>) -> PyResult<AttitudeHint> {
     Ok(AttitudeHint {
         r_icrs_to_cam: rotation(q)?,
         uncertainty_rad: uncertainty_deg.to_radians(),
@@ -32,7 +32,7 @@ pub fn hint(q: [f64; 4], uncertainty_deg: f64, mirrored: Option<bool>) -> PyResu
 }
 
 /// What a hinted search does when the hint explains nothing: lost in space, or no match.
-pub fn fallback_of(lost_in_space: bool) -> HintFallback {
+fn fallback_of(lost_in_space: bool) -> HintFallback {
     if lost_in_space {
         HintFallback::LostInSpace
     } else {
