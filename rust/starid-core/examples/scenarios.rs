@@ -118,6 +118,8 @@ fn main() {
         let (mut ok, mut wrong, mut none, mut ge4, mut ok_ge4, mut wrong_ids, mut ids) =
             (0, 0, 0, 0, 0, 0, 0);
         let mut times = Vec::new();
+        // Times and hypothesis counts of the identified frames, (time, hypotheses).
+        let mut ok_times: Vec<(f64, usize)> = Vec::new();
         let mut hyps: Vec<usize> = Vec::new();
         let mut fast = vec![true; sims.len()];
         let fast_only = std::env::var("STARID_FAST_ONLY").is_ok();
@@ -181,6 +183,7 @@ fn main() {
                         );
                     }
                     ok += 1;
+                    ok_times.push((r.elapsed.as_secs_f64(), r.hypotheses));
                     ok_ge4 += usize::from(real >= 4);
                 } else {
                     wrong += 1;
@@ -205,6 +208,19 @@ fn main() {
                 hyps[hyps.len() * 9 / 10],
                 hyps[hyps.len() * 99 / 100],
                 hyps.iter().sum::<usize>() as f64 / hyps.len() as f64
+            );
+        }
+        if std::env::var("STARID_HYP").is_ok() && !ok_times.is_empty() {
+            ok_times.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let at = |p: f64| ok_times[((ok_times.len() as f64 - 1.0) * p).round() as usize];
+            println!(
+                "identified frames: p99 {:.1} us ({} hypotheses), p99.9 {:.1} us, max {:.1} us ({} hypotheses); most hypotheses {}",
+                at(0.99).0 * 1e6,
+                at(0.99).1,
+                at(0.999).0 * 1e6,
+                at(1.0).0 * 1e6,
+                at(1.0).1,
+                ok_times.iter().map(|t| t.1).max().unwrap_or(0)
             );
         }
         let q = |p: f64| times[((times.len() as f64 - 1.0) * p).round() as usize] * 1e6;
