@@ -180,6 +180,7 @@ def test_confirm_new_stars_keeps_a_one_frame_coincidence_unnamed() -> None:
     spot = px[inside][0]
     xy_last = np.vstack([last.xy, spot])
     for confirm, expect_named in ((False, True), (True, False)):
+        # Five frames before: too few for confirm_unseen_frames (10) to hold the star.
         tracker = starid.Tracker(cat, camera=cam, confirm_new_stars=confirm)
         for f in seq[:-1]:
             step = tracker.update(f.xy, f.t_s)
@@ -191,3 +192,54 @@ def test_confirm_new_stars_keeps_a_one_frame_coincidence_unnamed() -> None:
         known = ids[:-1] >= 0
         assert known.sum() >= 0.9 * (last.true_ids >= 0).sum()
         assert np.array_equal(ids[:-1][known], last.true_ids[known])
+
+
+def _faint_star_inside(cat: starid.Catalog, cam: starid.Camera, frames: list, margin: float = 60.0) -> int:
+    """Index (row in the catalogue) of a star fainter than 6.2 inside every frame's sensor."""
+    faint = np.flatnonzero(cat.mag > 6.2)
+    keep = np.ones(len(faint), dtype=bool)
+    for f in frames:
+        v = cat.unit_vectors[faint] @ np.asarray(f.rotation_matrix).T
+        front = v[:, 2] > 0.5
+        px = np.full((len(faint), 2), -1.0)
+        px[front] = cam.project(np.ascontiguousarray(v[front]))
+        keep &= (px[:, 0] > margin) & (px[:, 0] < 512 - margin) & (px[:, 1] > margin) & (px[:, 1] < 512 - margin)
+    assert keep.any()
+    return int(faint[np.flatnonzero(keep)[0]])
+
+
+def test_a_star_unseen_for_ten_frames_is_named_from_its_second_frame_only() -> None:
+    """A false spot on a star too faint to be imaged, which the last 10 solutions had inside the
+    sensor without naming: held back in its first frame, named in the second in a row; named at
+    once with confirm_unseen_frames=None."""
+    cat = starid.Catalog.default()
+    cam = starid.Camera((512, 512), 12.0)
+    seq = starid.simulate_sequence(cat, frames=14, rate_deg_s=0.2, mag_limit=5.8, noise_px=0.1, seed=7)
+    truth = [starid.identify(f.xy, cat, camera=cam) for f in seq]
+    assert all(r.ok for r in truth)
+    row = _faint_star_inside(cat, cam, truth)
+    star = int(cat.ids[row])
+
+    def spot(k: int) -> np.ndarray:
+        v = cat.unit_vectors[row] @ np.asarray(truth[k].rotation_matrix).T
+        return np.vstack([seq[k].xy, cam.project(np.ascontiguousarray(v[None, :]))])
+
+    for unseen, expect in ((None, [True, True]), (10, [False, True])):
+        tracker = starid.Tracker(cat, camera=cam, confirm_unseen_frames=unseen)
+        for f in seq[:12]:
+            assert tracker.update(f.xy, f.t_s).ok
+        got = []
+        for k in (12, 13):
+            step = tracker.update(spot(k), seq[k].t_s)
+            assert step.mode == "tracking"
+            ids = step.identification.ids
+            got.append(bool(ids[-1] == star))
+            known = ids[:-1] >= 0
+            assert np.array_equal(ids[:-1][known], seq[k].true_ids[known])
+        assert got == expect
+
+
+@pytest.mark.parametrize("bad", [0, -1, 2.5, True, "3"])
+def test_confirm_unseen_frames_must_be_a_positive_whole_number(bad: object) -> None:
+    with pytest.raises(starid.InvalidInputError, match="confirm_unseen_frames"):
+        starid.Tracker(fov_deg=12.0, image_size=(512, 512), confirm_unseen_frames=bad)  # type: ignore[arg-type]

@@ -16,6 +16,7 @@ __all__ = [
     "StaridError",
     "Tracker",
     "GUIDE_MAX_TRIALS",
+    "CONFIRM_UNSEEN_FRAMES",
     "INCONSISTENT_RMS_PX",
     "__version__",
     "guide_field_counts",
@@ -47,6 +48,7 @@ __all__ = [
 __version__: str
 INCONSISTENT_RMS_PX: float
 GUIDE_MAX_TRIALS: int
+CONFIRM_UNSEEN_FRAMES: int
 
 class StaridError(ValueError):
     """Base class of starid's own exceptions (a ValueError: each says what input is wrong)."""
@@ -395,6 +397,7 @@ class Tracker:
         min_uncertainty_deg: float,
         fallback: bool,
         confirm_new_stars: bool = False,
+        confirm_unseen_frames: Optional[int] = ...,
     ) -> Tracker: ...
     def update(
         self, xy: npt.NDArray[np.float64], t_s: float, magnitudes: Optional[npt.NDArray[np.float64]] = None

@@ -10,8 +10,10 @@
 //!    after 10 blank frames, the frames until lock is regained.
 //!
 //! `cargo run --release --example tracking -- [FRAMES_PER_CASE] [SEQUENCE_FRAMES_PER_RATE]`
-//! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`; `STARID_PART1_ONLY=1`: stop
-//! after the hinted timing, for profiling).
+//! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`; `STARID_UNSEEN=K`: with
+//! `confirm_unseen_frames` K, 0 for off; `STARID_SEQ_SEED=N`: another set of sequences;
+//! `STARID_WRONG=1`: list the wrong ids; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
+//! profiling).
 #![allow(clippy::print_stdout)]
 
 use std::sync::Arc;
@@ -223,6 +225,9 @@ fn main() {
     let (mut all_ok, mut all_track, mut all_wrong) = (0, 0, 0);
     let (mut all_right, mut all_real) = (0usize, 0usize);
     let mut times = Vec::new();
+    // STARID_SEQ_SEED: the first sequence's seed (default 100), for a second set of sequences.
+    let seq_seed: u64 =
+        std::env::var("STARID_SEQ_SEED").map_or(100, |v| v.parse().expect("STARID_SEQ_SEED"));
     for (k, rate_deg) in [0.1f64, 0.5, 1.0, 2.0, 5.0].into_iter().enumerate() {
         let seq_cfg = SequenceConfig {
             frames: seq_frames,
@@ -239,15 +244,22 @@ fn main() {
             },
             ..Default::default()
         };
-        let seq = simulate_sequence(&catalog, &cam, &seq_cfg, 100 + k as u64).expect("sequence");
+        let seq =
+            simulate_sequence(&catalog, &cam, &seq_cfg, seq_seed + k as u64).expect("sequence");
         // STARID_CONFIRM=1: a new star inside the field is named from its second frame on
         // (TrackerConfig::confirm_new_stars).
         let tracker_cfg = TrackerConfig {
             confirm_new_stars: std::env::var("STARID_CONFIRM").is_ok(),
+            // STARID_UNSEEN=K: hold stars unseen for K solutions (0: off; default the core's).
+            confirm_unseen_frames: std::env::var("STARID_UNSEEN")
+                .map_or(Some(starid_core::tracking::CONFIRM_UNSEEN_FRAMES), |v| {
+                    v.parse().ok().filter(|&k| k > 0)
+                }),
             ..TrackerConfig::default()
         };
         let mut tracker = Tracker::new(tracker_cfg, cfg.clone()).expect("tracker");
         let (mut ok, mut track, mut bad, mut n, mut unid_real) = (0, 0, 0, 0, 0);
+        let (right_before, real_before) = (all_right, all_real);
         let mut regained = None;
         for (i, f) in seq.iter().enumerate() {
             let t = Instant::now();
@@ -317,9 +329,10 @@ fn main() {
             }
         }
         println!(
-            "4. {rate_deg}°/s: {ok}/{n} identified ({:.2} %), {track} in tracking mode ({:.2} %), {bad} wrong ids, {unid_real} unidentified with ≥ 2 real stars; lock regained {:?} frame(s) after 10 blank ones",
+            "4. {rate_deg}°/s: {ok}/{n} identified ({:.2} %), {track} in tracking mode ({:.2} %), {bad} wrong ids, {:.2} % of real stars named, {unid_real} unidentified with ≥ 2 real stars; lock regained {:?} frame(s) after 10 blank ones",
             100.0 * ok as f64 / n as f64,
             100.0 * track as f64 / n as f64,
+            100.0 * (all_right - right_before) as f64 / (all_real - real_before).max(1) as f64,
             regained
         );
         all_frames += n;

@@ -587,6 +587,10 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("GUIDE_MAX_TRIALS", starid_core::guide::MAX_TRIALS)?;
     m.add(
+        "CONFIRM_UNSEEN_FRAMES",
+        starid_core::tracking::CONFIRM_UNSEEN_FRAMES,
+    )?;
+    m.add(
         "INCONSISTENT_RMS_PX",
         starid_core::pointing::INCONSISTENT_RMS_PX,
     )?;

@@ -82,7 +82,8 @@ pub struct PyTracker {
 #[pymethods]
 impl PyTracker {
     #[new]
-    #[pyo3(signature = (catalog, camera, config, max_rate_deg_s, min_uncertainty_deg, fallback, confirm_new_stars=false))]
+    #[pyo3(signature = (catalog, camera, config, max_rate_deg_s, min_uncertainty_deg, fallback, confirm_new_stars=false, confirm_unseen_frames=Some(starid_core::tracking::CONFIRM_UNSEEN_FRAMES)))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         catalog: &Bound<'_, PyCatalog>,
@@ -92,6 +93,7 @@ impl PyTracker {
         min_uncertainty_deg: f64,
         fallback: bool,
         confirm_new_stars: bool,
+        confirm_unseen_frames: Option<u32>,
     ) -> PyResult<Self> {
         let cam = camera.get().inner;
         let tracker = Tracker::new(
@@ -100,6 +102,7 @@ impl PyTracker {
                 min_uncertainty_rad: min_uncertainty_deg.to_radians(),
                 fallback,
                 confirm_new_stars,
+                confirm_unseen_frames,
             },
             config.get().inner.clone(),
         )

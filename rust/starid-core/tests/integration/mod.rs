@@ -4,4 +4,5 @@ mod kvector;
 mod pointing;
 mod seeds;
 mod strategies;
+mod tracking;
 mod unknown_focal;
