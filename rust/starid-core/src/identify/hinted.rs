@@ -20,8 +20,12 @@ use crate::error::{Error, Result};
 use crate::geometry::{angle_between, rotation_angle_between, Camera};
 use crate::sky::Radius;
 
-/// Spots (brightest first) whose pairs make tracking hypotheses.
-pub const HINT_SEARCH_STARS: usize = 24;
+/// Spots (brightest first) whose pairs make tracking hypotheses. A pair costs little here (a
+/// false spot finds no star within the hint's reach of where it falls), and frames whose few
+/// real stars are faint among bright false spots need the deeper pairs: with 24, 0.14 % of the
+/// simulated sequence frames (0–40 false spots) fell back to lost in space; with 64, none did
+/// but the first of each sequence.
+pub const HINT_SEARCH_STARS: usize = 64;
 
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const HINT_SIGMA_LADDER_PX: [f64; 7] = [0.2, 0.35, 0.5, 0.7, 1.0, 1.5, 2.5];
