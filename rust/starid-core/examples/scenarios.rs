@@ -187,6 +187,16 @@ fn main() {
                     ok_ge4 += usize::from(real >= 4);
                 } else {
                     wrong += 1;
+                    if std::env::var("STARID_FAILS").is_ok() {
+                        println!(
+                            "  wrong solution seed {fi}: boresight {:.3}° off, {} matched of {}, sigma {:.2} px, p {:e}",
+                            err.to_degrees(),
+                            r.matched,
+                            f.centroids.len(),
+                            r.centroid_sigma_px,
+                            r.false_match_probability
+                        );
+                    }
                 }
                 for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
                     if got.is_some() {

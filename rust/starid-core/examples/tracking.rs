@@ -12,7 +12,9 @@
 //! `cargo run --release --example tracking -- [FRAMES_PER_CASE] [SEQUENCE_FRAMES_PER_RATE]`
 //! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`; `STARID_UNSEEN=K`: with
 //! `confirm_unseen_frames` K, 0 for off; `STARID_SEQ_SEED=N`: another set of sequences;
-//! `STARID_WRONG=1`: list the wrong ids; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
+//! `STARID_WRONG=1`: list the wrong ids; `STARID_MISSED=1`: the real stars left unnamed, with where the
+//! solution puts their star; `STARID_REPEAT=R`: part 1 times each frame R more times and keeps its
+//! fastest; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
 //! profiling).
 #![allow(clippy::print_stdout)]
 
@@ -102,6 +104,36 @@ fn main() {
         ok_hint += usize::from(b.is_identified());
         hinted += usize::from(b.hinted);
         wrong_hint += wrong(&b, f);
+    }
+    // STARID_REPEAT=R: each frame's calls timed R more times, keeping each frame's fastest (a
+    // steadier figure of the work than one pass on a shared machine), interleaved.
+    let repeat: usize =
+        std::env::var("STARID_REPEAT").map_or(0, |v| v.parse().expect("STARID_REPEAT"));
+    if repeat > 0 {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        for (k, f) in frames.iter().enumerate() {
+            let angle = 1f64.to_radians() * rng.random::<f64>();
+            let hint = AttitudeHint {
+                r_icrs_to_cam: offset(&mut rng, angle) * f.r_icrs_to_cam,
+                uncertainty_rad: 1f64.to_radians(),
+                mirrored: Some(f.mirrored),
+            };
+            for _ in 0..repeat {
+                let t = Instant::now();
+                let _ = solver.identify(&f.centroids, Some(&f.magnitudes), &cam, &cfg);
+                t_lis[k] = t_lis[k].min(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                let _ = solver.identify_hinted(
+                    &f.centroids,
+                    Some(&f.magnitudes),
+                    &cam,
+                    &cfg,
+                    &hint,
+                    HintFallback::LostInSpace,
+                );
+                t_hint[k] = t_hint[k].min(t.elapsed().as_secs_f64());
+            }
+        }
     }
     let (ml, mh) = (pct(&mut t_lis, 0.5), pct(&mut t_hint, 0.5));
     println!(
@@ -291,6 +323,27 @@ fn main() {
             all_real += f.frame.real_stars();
             if !id.is_identified() && f.frame.real_stars() >= 2 {
                 unid_real += 1;
+            }
+            if std::env::var("STARID_MISSED").is_ok() && id.is_identified() {
+                // Real stars left unnamed: where the solution puts their star, in pixels.
+                let r = id.r_icrs_to_cam.expect("identified");
+                for (o, (got, want)) in id
+                    .catalog_index
+                    .iter()
+                    .zip(&f.frame.catalog_index)
+                    .enumerate()
+                {
+                    if let (None, Some(star)) = (got, want) {
+                        let v = r * catalog.vectors()[*star as usize];
+                        if let Some((mut x, y)) = cam.cam_to_pixel(&v) {
+                            if id.mirrored {
+                                x = cam.width_px - x;
+                            }
+                            let [cx, cy] = f.frame.centroids[o];
+                            println!("  missed: rate {rate_deg} frame {i} star {star} mag {:.2} offset ({:.2}, {:.2}) px |{:.2}| radius {:.2} px sigma {:.2} px at ({cx:.0}, {cy:.0}) matched {} of {}", catalog.mag()[*star as usize], cx - x, cy - y, ((cx - x).powi(2) + (cy - y).powi(2)).sqrt(), id.match_radius_rad * cam.focal_length_px, id.centroid_sigma_px, id.matched, f.frame.centroids.len());
+                        }
+                    }
+                }
             }
             if std::env::var("STARID_WRONG").is_ok() && wrong(id, &f.frame) > 0 {
                 for (o, (a, b)) in id
