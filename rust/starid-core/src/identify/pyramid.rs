@@ -64,7 +64,9 @@ impl Search<'_> {
         let stride = self.stride;
         let s = stars.min(stride);
         // What the frame can still prove, as the hypotheses add up: see `RuleOut`.
-        let mut rule_out = (self.gate.is_none() && s >= 3).then(|| RuleOut::new(self, n, s, p_min));
+        // Made once the pass has tried a few triangles (most frames end at their first).
+        let mut rule_out: Option<RuleOut> = None;
+        let ungated = self.gate.is_none();
         let obs = self.obs[0];
         let order: &[usize] = self.order;
         let search = &order[..s];
@@ -105,11 +107,12 @@ impl Search<'_> {
                     if self.hypotheses as f64 > provable_until {
                         return Ok(self.accept(best));
                     }
-                    if rule_out
-                        .as_mut()
-                        .is_some_and(|r| tried >= r.triangles_after(self.hypotheses))
-                    {
-                        return Ok(self.accept(best));
+                    if ungated && tried >= RULE_OUT_FROM_TRIANGLES {
+                        let hypotheses = self.hypotheses;
+                        let r = rule_out.get_or_insert_with(|| RuleOut::new(self, n, s, p_min));
+                        if tried >= r.triangles_after(hypotheses) {
+                            return Ok(self.accept(best));
+                        }
                     }
                     if self.pairs_visited >= self.pass_pairs_limit {
                         // This pass's own budget is spent; the search goes on with the next.
@@ -446,6 +449,9 @@ impl Search<'_> {
         }
     }
 }
+
+/// Triangles a pass tries before [`RuleOut`] is consulted.
+const RULE_OUT_FROM_TRIANGLES: usize = 4;
 
 /// Chance, for a frame that holds enough real stars to pass the bound, that a pass has tried
 /// that many triangles without meeting one of them (see [`RuleOut`]).

@@ -391,6 +391,17 @@ impl Search<'_> {
         if n < MAG_CHECK_MIN_MATCHES {
             return 0;
         }
+        // Offsets within MAG_BRIGHTER_LIMIT of each other: none lies below the median by more
+        // than that, and the limit is at least that (the usual frame: no medians needed).
+        let (lo, hi) = s
+            .mag_offsets
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &d| {
+                (lo.min(d), hi.max(d))
+            });
+        if hi - lo <= MAG_BRIGHTER_LIMIT {
+            return 0;
+        }
         let offset = median_in_place(&mut s.mag_offsets);
         for d in &mut s.mag_offsets {
             *d = (*d - offset).abs();
