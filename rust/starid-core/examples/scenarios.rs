@@ -155,6 +155,15 @@ fn main() {
                     );
                 }
                 hyps.push(r.hypotheses);
+                if std::env::var("STARID_PER_FRAME").is_ok() {
+                    println!(
+                        "  frame {fi}: matched {} sigma {:.3} radius {:.1}\" hypotheses {}",
+                        r.matched,
+                        r.centroid_sigma_px,
+                        r.match_radius_rad.to_degrees() * 3600.0,
+                        r.hypotheses
+                    );
+                }
                 ge4 += usize::from(real >= 4);
                 let Some(rot) = r.r_icrs_to_cam else {
                     none += 1;

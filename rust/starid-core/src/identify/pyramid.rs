@@ -560,6 +560,7 @@ impl Adjacency {
         self.partner.clear();
     }
 
+    #[inline(never)]
     pub(super) fn fill(&mut self, pairs: impl Iterator<Item = [u32; 2]>, n_cat: usize) {
         self.reset(n_cat);
         for [p, q] in pairs {
