@@ -60,12 +60,8 @@ CONFIRM_UNSEEN_FRAMES: int = _starid.CONFIRM_UNSEEN_FRAMES
 
 
 def _unseen_frames(value: Optional[int]) -> Optional[int]:
-    """``confirm_unseen_frames`` checked: None, or a whole number of at least 1."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= int(value) <= 2**32 - 1:
-        raise InvalidInputError(f"confirm_unseen_frames must be a whole number of at least 1, or None; got {value!r}")
-    return int(value)
+    """``confirm_unseen_frames`` checked: None, or a whole number (the core refuses 0)."""
+    return None if value is None else _whole("confirm_unseen_frames", value, 2**32 - 1)
 
 
 class Tracker:

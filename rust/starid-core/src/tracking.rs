@@ -358,11 +358,7 @@ impl Tracker {
         let mut dropped = 0;
         for (o, m) in id.catalog_index.iter_mut().enumerate() {
             let Some(star) = *m else { continue };
-            let streak = self
-                .unseen
-                .binary_search_by_key(&star, |u| u.0)
-                .map_or(0, |i| self.unseen[i].1);
-            if streak >= k && self.held.binary_search(&star).is_err() {
+            if self.streak(star) >= k && self.held.binary_search(&star).is_err() {
                 *m = None;
                 id.residuals_rad[o] = f64::NAN;
                 dropped += 1;
@@ -384,35 +380,25 @@ impl Tracker {
     ) {
         let catalog = solver.catalog();
         let cat = catalog.vectors();
-        let (w, h) = (camera.width_px, camera.height_px);
         let mut named: Vec<u32> = id.catalog_index.iter().flatten().copied().collect();
         named.sort_unstable();
         let mut unseen = Vec::new();
         let boresight = r.inverse_transform_vector(&Vector3::z());
         catalog.for_each_in_cone(&boresight, 0.5 * camera.diagonal_fov_rad(), |star, _| {
-            if named.binary_search(&star).is_ok() {
-                return;
-            }
-            let Some((mut x, y)) = camera.cam_to_pixel(&(r * cat[star as usize])) else {
-                return;
-            };
-            if id.mirrored {
-                x = w - x;
-            }
-            let inside = x >= CONFIRM_MARGIN_PX
-                && y >= CONFIRM_MARGIN_PX
-                && x <= w - CONFIRM_MARGIN_PX
-                && y <= h - CONFIRM_MARGIN_PX;
-            if inside {
-                let before = self
-                    .unseen
-                    .binary_search_by_key(&star, |u| u.0)
-                    .map_or(0, |i| self.unseen[i].1);
-                unseen.push((star, before.saturating_add(1)));
+            if named.binary_search(&star).is_err() && well_inside(camera, &(r * cat[star as usize]))
+            {
+                unseen.push((star, self.streak(star).saturating_add(1)));
             }
         });
         unseen.sort_unstable_by_key(|u| u.0);
         self.unseen = unseen;
+    }
+
+    /// The solutions in a row that had `star` well inside the sensor without naming it.
+    fn streak(&self, star: u32) -> u32 {
+        self.unseen
+            .binary_search_by_key(&star, |u| u.0)
+            .map_or(0, |i| self.unseen[i].1)
     }
 
     /// Unname the stars `id` names for the first time although the last solution (attitude
@@ -425,23 +411,14 @@ impl Tracker {
         r0: &Rotation3<f64>,
     ) {
         let cat = solver.catalog().vectors();
-        let (w, h) = (camera.width_px, camera.height_px);
         let mut dropped = 0;
         for (k, m) in id.catalog_index.iter_mut().enumerate() {
             let Some(star) = *m else { continue };
             if self.named.binary_search(&star).is_ok() {
                 continue;
             }
-            // Where the last solution saw it (in a mirrored frame x is reversed, which the
-            // margin test does not see).
-            let Some((x, y)) = camera.cam_to_pixel(&(r0 * cat[star as usize])) else {
-                continue;
-            };
-            let inside = x >= CONFIRM_MARGIN_PX
-                && y >= CONFIRM_MARGIN_PX
-                && x <= w - CONFIRM_MARGIN_PX
-                && y <= h - CONFIRM_MARGIN_PX;
-            if inside {
+            // Where the last solution saw it.
+            if well_inside(camera, &(r0 * cat[star as usize])) {
                 *m = None;
                 id.residuals_rad[k] = f64::NAN;
                 dropped += 1;
@@ -449,4 +426,15 @@ impl Tracker {
         }
         id.matched -= dropped;
     }
+}
+
+/// Whether the camera-frame direction `v` falls on the sensor at least [`CONFIRM_MARGIN_PX`] from
+/// its edges (a test symmetric in x, so the same in a mirrored frame).
+fn well_inside(camera: &Camera, v: &Vector3<f64>) -> bool {
+    camera.cam_to_pixel(v).is_some_and(|(x, y)| {
+        x >= CONFIRM_MARGIN_PX
+            && y >= CONFIRM_MARGIN_PX
+            && x <= camera.width_px - CONFIRM_MARGIN_PX
+            && y <= camera.height_px - CONFIRM_MARGIN_PX
+    })
 }

@@ -987,17 +987,9 @@ impl Solver {
                 // A crowded frame searched by its brightest spots alone: most are false, and a
                 // search that has not found an all-real triangle yet seldom will.
                 search.pairs_visited.saturating_add(CROWDED_PAIRS_PER_STEP)
-            } else if ladder.len() > 1
-                && !pass.bright
-                && pass.method == Method::Pyramid
-                && Some(&pass.sigma_px) == ladder.last()
-            {
-                // The loosest step, the last resort: see LOOSEST_STEP_SHARE.
-                search
-                    .pairs_visited
-                    .saturating_add(config.max_pairs_visited / LOOSEST_STEP_SHARE)
             } else {
-                usize::MAX
+                // A pass's own budget (the loosest step's: see LOOSEST_STEP_SHARE), if any.
+                search.pairs_visited.saturating_add(pass.pairs_budget)
             };
             search.method = pass.method;
             let work_before = search.pairs_visited;
@@ -1170,7 +1162,15 @@ impl Solver {
         if bright {
             passes.push(pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX));
         }
-        passes.push(pass(false, config.max_search_stars, *last, usize::MAX));
+        // The loosest step, the last resort, on a share of the budget (see LOOSEST_STEP_SHARE).
+        passes.push(Pass {
+            pairs_budget: if early.is_empty() {
+                usize::MAX
+            } else {
+                config.max_pairs_visited / LOOSEST_STEP_SHARE
+            },
+            ..pass(false, config.max_search_stars, *last, usize::MAX)
+        });
         for p in &mut passes {
             p.stars = p.stars.min(n);
         }
@@ -1209,7 +1209,7 @@ struct Pass {
     gated: bool,
     /// With the tight window ([`TIGHT_MAG_FRACTION`] of `mag_tolerance`).
     tight: bool,
-    /// Catalogue pairs the pass may visit (gated passes).
+    /// Catalogue pairs the pass may visit (gated passes, and the loosest step's full pass).
     pairs_budget: usize,
     /// Brightest centroids that form triangles.
     stars: usize,
