@@ -79,16 +79,25 @@ pub fn wahba_from(
     if obs_cam.len() < 2 || obs_cam.len() != ref_icrs.len() {
         return None;
     }
+    // One pass over the pairs: B = Σ bᵢ rᵢᵀ and C = Σ rᵢ rᵢᵀ. With pᵢ = R rᵢ, Σ pᵢ pᵢᵀ = R C Rᵀ,
+    // and Σ pᵢ × bᵢ is the axial vector of Σ (bᵢ pᵢᵀ − pᵢ bᵢᵀ) = M − Mᵀ, M = B Rᵀ: each step then
+    // costs the same for any number of pairs.
+    let (mut b, mut c) = (Matrix3::zeros(), Matrix3::zeros());
+    for (o, v) in obs_cam.iter().zip(ref_icrs) {
+        b += o * v.transpose();
+        c += v * v.transpose();
+    }
+    let n = obs_cam.len() as f64;
     let mut r = *start;
     for _ in 0..GAUSS_NEWTON_MAX_STEPS {
-        let mut normal = Matrix3::zeros();
-        let mut gradient = Vector3::zeros();
-        for (b, c) in obs_cam.iter().zip(ref_icrs) {
-            let p = r * c;
-            normal -= p * p.transpose();
-            gradient += p.cross(b);
-        }
-        normal += Matrix3::identity() * obs_cam.len() as f64;
+        let rm = r.matrix();
+        let normal = Matrix3::identity() * n - rm * c * rm.transpose();
+        let m = b * rm.transpose();
+        let gradient = Vector3::new(
+            m[(2, 1)] - m[(1, 2)],
+            m[(0, 2)] - m[(2, 0)],
+            m[(1, 0)] - m[(0, 1)],
+        );
         let Some(step) = solve_spd3(&normal, &gradient) else {
             break;
         };

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    validate_centroids, Identification, IdentifyConfig, Method, Search, Solver, Status, SCRATCH,
+    brightness_order, validate_centroids, Identification, IdentifyConfig, Method, Search, Solver, Status, SCRATCH,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
@@ -200,10 +200,7 @@ impl Solver {
                 .map(|c| camera.pixel_to_cam(c[0], c[1], true))
                 .collect()
         };
-        let mut order: Vec<usize> = (0..n).collect();
-        if let Some(m) = magnitudes {
-            order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
-        }
+        let order = brightness_order(n, magnitudes);
         let handedness: &[bool] = match hint.mirrored {
             Some(false) => &[false],
             Some(true) => &[true],

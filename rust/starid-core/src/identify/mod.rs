@@ -887,10 +887,7 @@ impl Solver {
                 .map(|c| camera.pixel_to_cam(c[0], c[1], true))
                 .collect()
         };
-        let mut order: Vec<usize> = (0..n).collect();
-        if let Some(m) = magnitudes {
-            order.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
-        }
+        let order = brightness_order(n, magnitudes);
         let ladder: &[f64] = match &config.centroid_sigma_px {
             Some(s) => std::slice::from_ref(s),
             None => &SIGMA_LADDER_PX,
@@ -1336,6 +1333,26 @@ impl Solver {
     }
 }
 
+/// Frames of at most this many centroids are checked for duplicates pair by pair (cheaper than a
+/// sort at this size).
+const DUPLICATE_PAIRWISE_MAX: usize = 24;
+
+/// The centroids brightest first (by magnitude, ties by index), or as given without magnitudes.
+pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usize> {
+    let Some(m) = magnitudes else {
+        return (0..n).collect();
+    };
+    // Each magnitude as an integer in the order of `f64::total_cmp`: sorting (key, index) pairs
+    // gives the order with ties by index, each comparison as cheap as one of integers.
+    let key = |x: f64| {
+        let b = x.to_bits() as i64;
+        b ^ ((((b >> 63) as u64) >> 1) as i64)
+    };
+    let mut keyed: Vec<(i64, usize)> = m.iter().enumerate().map(|(i, &x)| (key(x), i)).collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
 pub(crate) fn validate_centroids(
     centroids: &[[f64; 2]],
     magnitudes: Option<&[f64]>,
@@ -1364,14 +1381,20 @@ pub(crate) fn validate_centroids(
             )));
         }
     }
-    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; sorted
-    // as integers, on the stack for frames of up to 64 centroids.
+    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; compared
+    // pair by pair for small frames, else sorted as integers (on the stack up to 64 centroids).
     let key = |c: &[f64; 2]| ((c[0] + 0.0).to_bits(), (c[1] + 0.0).to_bits());
     let has_duplicate = |keys: &mut [(u64, u64)]| {
         keys.sort_unstable();
         keys.windows(2).any(|w| w[0] == w[1])
     };
-    let duplicate = if n <= 64 {
+    let duplicate = if n <= DUPLICATE_PAIRWISE_MAX {
+        let mut keys = [(0u64, 0u64); DUPLICATE_PAIRWISE_MAX];
+        for (k, c) in keys.iter_mut().zip(centroids) {
+            *k = key(c);
+        }
+        (1..n).any(|j| keys[..j].contains(&keys[j]))
+    } else if n <= 64 {
         let mut keys = [(0u64, 0u64); 64];
         for (k, c) in keys.iter_mut().zip(centroids) {
             *k = key(c);

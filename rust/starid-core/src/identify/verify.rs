@@ -599,7 +599,8 @@ pub(super) enum Nearest {
     Ambiguous([(u32, f64); 2]),
 }
 
-/// A catalogue star near a direction: its index and distance (the sine of the angle).
+/// A catalogue star near a direction: its index and squared distance (the sine of the angle,
+/// squared).
 type Near = (u32, f64);
 
 /// How much wider than asked the stars near each centroid are looked up (see [`NearCache`]).
@@ -689,7 +690,8 @@ impl NearCache {
     }
 
     /// The nearest two held stars within `radius` of centroid `o` (as placed by the last
-    /// `ensure`), as `catalog.nearest_two` would give them, with their distances.
+    /// `ensure`), as `catalog.nearest_two` would give them, with their squared distances (the
+    /// square roots are taken only for the match kept: see [`nearest_match`]).
     #[inline]
     fn nearest_two(&self, o: usize, radius: Radius) -> (Option<Near>, Option<Near>) {
         let w = &self.w[o];
@@ -708,8 +710,9 @@ impl NearCache {
                 second = Some((*star, c, a + k));
             }
         }
-        let near =
-            |h: Option<(u32, f64, usize)>| h.map(|(s, _, k)| (s, w.cross(&self.stars[k].1).norm()));
+        let near = |h: Option<(u32, f64, usize)>| {
+            h.map(|(s, _, k)| (s, w.cross(&self.stars[k].1).norm_squared()))
+        };
         (near(best), near(second))
     }
 }
@@ -751,8 +754,9 @@ impl Claims {
     }
 }
 
-/// Of the nearest two catalogue stars to a centroid, the nearest that `allowed` admits, and
-/// whether a second allowed star is nearly as likely (see [`AMBIGUITY_LOG_ODDS`]).
+/// Of the nearest two catalogue stars to a centroid (with squared distances), the nearest that
+/// `allowed` admits, and whether a second allowed star is nearly as likely (see
+/// [`AMBIGUITY_LOG_ODDS`]); the answer carries distances.
 fn nearest_match(
     (best, second): (Option<Near>, Option<Near>),
     sigma_rad: f64,
@@ -763,13 +767,12 @@ fn nearest_match(
         (_, Some(s)) if allowed(s.0) => (s, None),
         _ => return Nearest::None,
     };
-    let d1 = best.1;
-    if let Some((s2, d2)) = second {
-        if d2 * d2 - d1 * d1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
-            return Nearest::Ambiguous([best, (s2, d2)]);
+    if let Some((s2, d2_sq)) = second {
+        if d2_sq - best.1 < 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad {
+            return Nearest::Ambiguous([(best.0, best.1.sqrt()), (s2, d2_sq.sqrt())]);
         }
     }
-    Nearest::Unique(best.0, d1)
+    Nearest::Unique(best.0, best.1.sqrt())
 }
 
 /// The nearest catalogue star to `w` within `radius`, unless a second star is nearly as likely
