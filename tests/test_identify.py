@@ -251,3 +251,29 @@ def test_every_input_form_gives_the_same_answer(bundled: starid.Catalog) -> None
         starid.identify(np.zeros((5, 3)), bundled, **kw)
     with pytest.raises(starid.InvalidInputError, match="hint_uncertainty_deg"):
         starid.identify(f.xy, bundled, attitude_hint=q, hint_uncertainty_deg=float("nan"), **kw)
+
+
+def test_a_field_of_view_given_off_is_corrected_and_reported() -> None:
+    # 20 deg frames identified as 20.2 deg: the focal check searches again with the focal
+    # length the residuals imply and reports it; with focal_check=False the given one stays.
+    truth = starid.Camera((1024, 1024), fov_deg=20.0).focal_length_px
+    corrected, named, named_fixed = 0, 0, 0
+    for seed in range(12):
+        f = starid.simulate(fov_deg=20.0, image_size=(1024, 1024), seed=seed, noise_px=0.2, mag_limit=6.0)
+        kw = dict(fov_deg=20.2, image_size=(1024, 1024), magnitudes=f.magnitudes, brightness_order=False)
+        res = starid.identify(f.xy, **kw)
+        fixed = starid.identify(f.xy, focal_check=False, **kw)
+        assert fixed.fov_deg == pytest.approx(20.2) and np.isnan(fixed.focal_sigma_px)
+        named += res.n_matched
+        named_fixed += fixed.n_matched
+        if not np.isnan(res.focal_sigma_px):
+            corrected += 1
+            known = res.ids >= 0
+            assert np.array_equal(res.ids[known], f.true_ids[known])
+            assert abs(res.focal_px - truth) < max(5 * res.focal_sigma_px, 1.0)
+            assert res.fov_deg == pytest.approx(20.0, abs=0.01)
+            assert res.n_matched >= fixed.n_matched
+        exact = starid.identify(f.xy, fov_deg=20.0, image_size=(1024, 1024), magnitudes=f.magnitudes, brightness_order=False)
+        assert np.isnan(exact.focal_sigma_px) and exact.fov_deg == 20.0
+    # 6 of the 12 corrected, 187 -> 342 stars named when this was written.
+    assert corrected >= 4 and named > named_fixed + 80

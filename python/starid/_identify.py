@@ -338,6 +338,12 @@ def identify(
         extractors do (default True): the first few are then tried among the locally bright
         catalogue stars first, which is fast. Pass False for centroids in no particular order
         (such as :func:`simulate`'s, which are shuffled); either way the answer is verified.
+    focal_check : bool
+        With ``fov_deg`` given (default True): when a solution's residuals grow with their
+        distance from the image centre, the field of view was given a little off (a lens's
+        nominal focal length, say); the frame is searched again with the focal length they
+        imply, reported as ``focal_px`` and ``fov_deg`` with ``focal_sigma_px``. False holds
+        the given field of view fixed.
 
     Returns
     -------

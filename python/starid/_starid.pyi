@@ -117,6 +117,7 @@ class IdentifyConfig:
         mag_tolerance: Optional[float] = None,
         brightness_order: Optional[bool] = None,
         verify: Optional[bool] = None,
+        focal_check: Optional[bool] = None,
     ) -> IdentifyConfig: ...
     @staticmethod
     def names() -> list[str]: ...
@@ -150,6 +151,8 @@ class IdentifyConfig:
     def brightness_order(self) -> bool: ...
     @property
     def verify(self) -> bool: ...
+    @property
+    def focal_check(self) -> bool: ...
 
 @final
 class Camera:

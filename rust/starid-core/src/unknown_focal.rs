@@ -173,6 +173,8 @@ impl Solver {
             max_hypotheses: config.max_hypotheses.min(PER_FOCAL_HYPOTHESES),
             max_pairs_visited: config.max_pairs_visited.min(PER_FOCAL_PAIRS),
             timeout: None,
+            // The focal length is refined here, over all matches (step 4).
+            focal_check: false,
             ..config.clone()
         };
         let mut search = FocalSearch {

@@ -70,7 +70,7 @@ pub struct PyIdentifyConfig {
 }
 
 /// Names of the settings, in the constructor's order.
-const SETTINGS: [&str; 13] = [
+const SETTINGS: [&str; 14] = [
     "centroid_sigma_px",
     "max_false_match_prob",
     "min_matches",
@@ -84,6 +84,7 @@ const SETTINGS: [&str; 13] = [
     "mag_tolerance",
     "brightness_order",
     "verify",
+    "focal_check",
 ];
 
 #[pymethods]
@@ -92,7 +93,8 @@ impl PyIdentifyConfig {
     #[pyo3(signature = (*, centroid_sigma_px=None, max_false_match_prob=None, min_matches=None,
                         max_search_stars=None, max_hypotheses=None, max_pairs_visited=None,
                         allow_mirrored=None, timeout_s=None, method=None, mag_offset=0.0,
-                        mag_tolerance=None, brightness_order=None, verify=None))]
+                        mag_tolerance=None, brightness_order=None, verify=None,
+                        focal_check=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -107,6 +109,7 @@ impl PyIdentifyConfig {
         mag_tolerance: Option<f64>,
         brightness_order: Option<bool>,
         verify: Option<bool>,
+        focal_check: Option<bool>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
@@ -137,6 +140,7 @@ impl PyIdentifyConfig {
             mag_tolerance: mag_tolerance.unwrap_or(d.mag_tolerance),
             brightness_order: brightness_order.unwrap_or(d.brightness_order),
             verify: verify.unwrap_or(d.verify),
+            focal_check: focal_check.unwrap_or(d.focal_check),
         };
         inner.validate().map_err(PyStaridError)?;
         Ok(Self { inner })
@@ -165,6 +169,7 @@ impl PyIdentifyConfig {
         d.set_item("mag_tolerance", c.mag_tolerance)?;
         d.set_item("brightness_order", c.brightness_order)?;
         d.set_item("verify", c.verify)?;
+        d.set_item("focal_check", c.focal_check)?;
         Ok(d)
     }
 
@@ -237,6 +242,12 @@ impl PyIdentifyConfig {
     #[getter]
     fn verify(&self) -> bool {
         self.inner.verify
+    }
+    /// Check a verified solution for a focal length off and search again with the one its
+    /// residuals imply; False holds the camera's focal length fixed.
+    #[getter]
+    fn focal_check(&self) -> bool {
+        self.inner.focal_check
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

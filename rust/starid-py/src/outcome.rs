@@ -95,9 +95,10 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 ///     Time spent identifying (inside the Rust core; excludes Python overhead).
 /// fov_deg, focal_px : float
 ///     The camera's field of view across the width and its focal length in pixels: the given
-///     ones, or, when the field of view was unknown, the estimates (NaN when not ``ok``).
+///     ones, or the estimates when the field of view was unknown (NaN when not ``ok``) or the
+///     given one proved off (the focal check, ``IdentifyConfig.focal_check``).
 /// focal_sigma_px : float
-///     1 sigma of the estimated focal length (NaN when the field of view was given).
+///     1 sigma of the estimated focal length (NaN when the given one was used).
 ///
 /// Plain values are computed once; the arrays are made on first access and kept, so a call
 /// builds no dict and runs no Python constructor.
@@ -135,6 +136,17 @@ impl PyIdentification {
         camera: &Camera,
         focal_sigma_px: f64,
     ) -> Self {
+        // The focal check's focal length, where it replaced the camera's.
+        let (camera, focal_sigma_px) = match id.focal_length_px {
+            Some(f) => (
+                &Camera {
+                    focal_length_px: f,
+                    ..*camera
+                },
+                id.focal_sigma_px,
+            ),
+            None => (camera, focal_sigma_px),
+        };
         Self {
             status: id.status.as_str(),
             method: id.method.name(),

@@ -13,7 +13,8 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    brightness_order, validate_centroids, Identification, IdentifyConfig, Method, Search, Solver, Status, SCRATCH,
+    brightness_order, validate_centroids, Identification, IdentifyConfig, Method, Search, Solver,
+    Status, SCRATCH,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};

@@ -43,6 +43,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::{Rotation3, Vector3};
 
+use crate::attitude::wahba_from;
 use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
@@ -53,6 +54,7 @@ mod cache;
 mod hinted;
 mod magbins;
 mod pyramid;
+pub mod scale;
 mod seeds;
 mod verify;
 mod voting;
@@ -171,6 +173,13 @@ pub const MAX_CENTROIDS: usize = 100_000;
 /// Fewest centroids a frame must have: a triangle and a confirming fourth star.
 pub const MIN_CENTROIDS: usize = 4;
 
+/// Work budget (catalogue pairs) of the loosest step's bright pass when the gated passes
+/// (calibrated magnitudes) have spent the search's budget: that pass still runs, on this much.
+/// A field of view given a little off is what it finds there (its scale error carries the sides
+/// of wide triangles past the tighter steps' tolerances, and the gated passes search in vain);
+/// such a frame takes a few hundred to a few thousand pairs.
+pub const CLOSING_LOOSE_PAIRS: usize = 10_000;
+
 /// Settings of [`Solver::identify`]. Build with `..Default::default()`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IdentifyConfig {
@@ -211,6 +220,10 @@ pub struct IdentifyConfig {
     /// ([`Identification::verified`] false, no false-match bound), so that its accuracy can
     /// be measured as its authors meant; it may be wrong. Lost in space, known focal length only.
     pub verify: bool,
+    /// Check a verified solution for a focal length off (a field of view given a little wrong)
+    /// and search the frame again with the one its residuals imply (the default; see
+    /// [`scale`] and [`Identification::focal_length_px`]). `false` holds the camera fixed.
+    pub focal_check: bool,
 }
 
 /// How hypotheses are generated. Every method's hypotheses pass the same verification.
@@ -352,6 +365,7 @@ impl Default for IdentifyConfig {
             mag_tolerance: 0.5,
             brightness_order: true,
             verify: true,
+            focal_check: true,
         }
     }
 }
@@ -492,6 +506,14 @@ pub struct Identification {
     /// raw answer with [`IdentifyConfig::verify`] off: then `false_match_probability` is 1
     /// (no bound), `centroid_sigma_px` and `match_radius_rad` NaN, and the ids may be wrong.
     pub verified: bool,
+    /// The focal length (px) the solution was found with when the given one proved off: the
+    /// focal check of [`Solver::identify`] saw the matches' residuals scale with their distance
+    /// from the principal point (see [`scale`]) and searched the frame again with the focal
+    /// length they imply. The attitude, ids and residuals are those of this focal length.
+    /// `None`: the camera's own.
+    pub focal_length_px: Option<f64>,
+    /// 1σ of `focal_length_px` (px); NaN when that is `None`.
+    pub focal_sigma_px: f64,
 }
 
 impl Identification {
@@ -533,6 +555,8 @@ impl Identification {
             message: None,
             hinted: false,
             verified: false,
+            focal_length_px: None,
+            focal_sigma_px: f64::NAN,
         }
     }
 }
@@ -839,6 +863,11 @@ impl Solver {
     /// bright catalogue stars, then among all), and a match far brighter than its catalogue
     /// star is dropped ([`MAG_BRIGHTER_LIMIT`]).
     ///
+    /// With [`IdentifyConfig::focal_check`] (the default), a verified solution that leaves spots
+    /// unnamed is checked for a focal length off; a significant one sends the frame back to the
+    /// search with the focal length the residuals imply (see [`scale`]), and the result then
+    /// carries it in [`Identification::focal_length_px`].
+    ///
     /// # Errors
     /// `InvalidInput` for fewer than [`MIN_CENTROIDS`] or more than [`MAX_CENTROIDS`] centroids,
     /// non-finite or duplicate centroids, centroids off the sensor, magnitudes of the wrong
@@ -869,6 +898,97 @@ impl Solver {
         let start = Instant::now();
         config.validate()?;
         validate_centroids(centroids, magnitudes, camera)?;
+        let mut id = self.search_frame(centroids, magnitudes, camera, config, start)?;
+        // A solution that names every spot leaves no star out by a focal error worth a search.
+        if config.focal_check && id.verified && id.matched < centroids.len() {
+            self.check_focal(centroids, magnitudes, camera, config, start, &mut id)?;
+        }
+        id.elapsed = start.elapsed();
+        Ok(id)
+    }
+
+    /// The focal check (see [`scale`]): while a verified solution's residuals show the focal
+    /// length off, search the frame again with the one they imply, at most
+    /// [`scale::FOCAL_RETRIES`] times, keeping a new solution that matches at least as many
+    /// centroids. Within the configured timeout only.
+    fn check_focal(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        start: Instant,
+        id: &mut Identification,
+    ) -> Result<()> {
+        let vectors = self.catalog.vectors();
+        let mut cam = *camera;
+        for _ in 0..scale::FOCAL_RETRIES {
+            let Some(err) = scale::focal_scale_error(centroids, &cam, id, vectors)
+                .filter(|&e| scale::significant(e))
+            else {
+                break;
+            };
+            if config.timeout.is_some_and(|t| start.elapsed() >= t) {
+                break;
+            }
+            let mut trial = cam;
+            trial.focal_length_px *= 1.0 + err.0;
+            let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
+            if !(again.verified && again.matched >= id.matched) {
+                break;
+            }
+            (cam, *id) = (trial, again);
+            id.focal_length_px = Some(cam.focal_length_px);
+        }
+        if id.focal_length_px.is_some() {
+            // What the final matches still show (below the search's threshold) refines the
+            // focal length: the attitude refitted and the residuals recomputed with it, the
+            // matches kept.
+            if let Some((a, se)) = scale::focal_scale_error(centroids, &cam, id, vectors) {
+                cam.focal_length_px *= 1.0 + a;
+                self.refit_matches(centroids, &cam, id);
+                id.focal_length_px = Some(cam.focal_length_px);
+                id.focal_sigma_px = se * cam.focal_length_px;
+            }
+        }
+        Ok(())
+    }
+
+    /// The attitude and residuals of `id`'s matches under `camera`.
+    fn refit_matches(&self, centroids: &[[f64; 2]], camera: &Camera, id: &mut Identification) {
+        let Some(r0) = id.r_icrs_to_cam else { return };
+        let vectors = self.catalog.vectors();
+        let obs: Vec<Vector3<f64>> = centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], id.mirrored))
+            .collect();
+        let (o, c): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = id
+            .catalog_index
+            .iter()
+            .zip(&obs)
+            .filter_map(|(s, v)| s.map(|s| (*v, vectors[s as usize])))
+            .unzip();
+        let Some(r) = wahba_from(&o, &c, &r0) else {
+            return;
+        };
+        for ((res, s), v) in id.residuals_rad.iter_mut().zip(&id.catalog_index).zip(&obs) {
+            if let Some(s) = s {
+                // As verification gives them: the sine of the angle.
+                *res = v.cross(&(r * vectors[*s as usize])).norm();
+            }
+        }
+        id.r_icrs_to_cam = Some(r);
+    }
+
+    /// One search of a validated frame with the camera as given.
+    fn search_frame(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        start: Instant,
+    ) -> Result<Identification> {
         let n = centroids.len();
         if n < MIN_CENTROIDS {
             let mut id = Identification::unidentified(Status::TooFewStars, n, 0, start.elapsed());
@@ -936,7 +1056,14 @@ impl Solver {
         search.stride = stride;
         search.deadline = config.timeout.map(|t| start + t);
         let mut status = Status::NoMatch;
+        let loosest = *ladder.last().expect("the ladder has a step");
+        let closing = |p: &Pass| p.bright && !p.gated && p.sigma_px == loosest;
+        // Set when the gated passes spent the budget: only the closing pass runs then.
+        let mut closing_only = false;
         for pass in passes {
+            if closing_only && !closing(&pass) {
+                continue;
+            }
             search.pairs = if pass.bright {
                 self.bright_pairs.as_ref().unwrap_or(&self.pairs)
             } else {
@@ -972,7 +1099,9 @@ impl Solver {
             }
             // After gated passes (a crowded frame with calibrated magnitudes), the ungated
             // passes that follow, the fallback for magnitudes that mislead, get a budget too.
-            search.pass_pairs_limit = if pass.gated {
+            search.pass_pairs_limit = if closing_only {
+                search.pairs_visited.saturating_add(CLOSING_LOOSE_PAIRS)
+            } else if pass.gated {
                 gated_ran = true;
                 search.pairs_visited.saturating_add(pass.pairs_budget)
             } else if gated_ran {
@@ -983,7 +1112,9 @@ impl Solver {
             } else if n > config.max_search_stars {
                 // A crowded frame searched by its brightest spots alone: most are false, and a
                 // search that has not found an all-real triangle yet seldom will.
-                search.pairs_visited.saturating_add(CROWDED_PAIRS_PER_STEP)
+                search
+                    .pairs_visited
+                    .saturating_add(CROWDED_PAIRS_PER_STEP.min(pass.pairs_budget))
             } else {
                 // A pass's own budget (the loosest step's: see LOOSEST_STEP_SHARE), if any.
                 search.pairs_visited.saturating_add(pass.pairs_budget)
@@ -1008,6 +1139,12 @@ impl Solver {
                     return Ok(id);
                 }
                 Ok(None) => {}
+                Err(SearchLimit(Status::SearchLimit)) if pass.gated && !closing_only => {
+                    // The budget, spent by the gated passes (whose work then no longer counts
+                    // against it, as above): the closing pass still runs.
+                    status = Status::SearchLimit;
+                    closing_only = true;
+                }
                 Err(SearchLimit(why)) => {
                     status = why;
                     break;
@@ -1147,7 +1284,12 @@ impl Solver {
             // A crowded frame whose calibrated magnitudes found nothing: the ungated passes
             // over its brightest spots, the fallback for magnitudes that mislead, would mostly
             // try false stars; they are left out beyond this many spots.
+            // The brightest few at the loosest step still close the search (see
+            // CLOSING_LOOSE_PAIRS).
             if n > HOSTILE_FALLBACK_MAX_SPOTS {
+                if bright && !early.is_empty() {
+                    passes.push(pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX));
+                }
                 return passes;
             }
         }
@@ -1695,6 +1837,8 @@ impl Verified {
             message: None,
             hinted: false,
             verified: self.verified,
+            focal_length_px: None,
+            focal_sigma_px: f64::NAN,
         }
     }
 }
@@ -1702,6 +1846,26 @@ impl Verified {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn brightness_order_is_the_stable_order_by_magnitude() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        for n in [0, 1, 2, 5, 19, 20, 21, 64, 300] {
+            // Ties, negative magnitudes and signed zeros.
+            let m: Vec<f64> = (0..n)
+                .map(|k| match k % 7 {
+                    0 => 0.0,
+                    1 => -0.0,
+                    _ => (rng.random_range(-3.0..9.0f64) * 4.0).round() / 4.0,
+                })
+                .collect();
+            let mut want: Vec<usize> = (0..n).collect();
+            want.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
+            assert_eq!(brightness_order(n, Some(&m)), want, "n = {n}");
+            assert_eq!(brightness_order(n, None), (0..n).collect::<Vec<_>>());
+        }
+    }
 
     #[test]
     fn sorted_magnitudes_answer_as_a_search_of_the_whole_list() {

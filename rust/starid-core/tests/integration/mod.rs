@@ -1,3 +1,4 @@
+mod focal_check;
 mod geometry;
 mod identify;
 mod kvector;
