@@ -273,6 +273,10 @@ def test_a_field_of_view_given_off_is_corrected_and_reported() -> None:
             assert abs(res.focal_px - truth) < max(5 * res.focal_sigma_px, 1.0)
             assert res.fov_deg == pytest.approx(20.0, abs=0.01)
             assert res.n_matched >= fixed.n_matched
+            # FITS WCS of it, with the camera given: the corrected focal length's scale.
+            header = starid.wcs.wcs_header(res, (1024, 1024), camera=starid.Camera((1024, 1024), fov_deg=20.2))
+            scale = float(np.hypot(header["CD1_1"], header["CD2_1"]))
+            assert scale == pytest.approx(np.degrees(1.0) / res.focal_px, rel=1e-9)
         exact = starid.identify(f.xy, fov_deg=20.0, image_size=(1024, 1024), magnitudes=f.magnitudes, brightness_order=False)
         assert np.isnan(exact.focal_sigma_px) and exact.fov_deg == 20.0
     # 6 of the 12 corrected, 187 -> 342 stars named when this was written.
