@@ -44,59 +44,54 @@ pub(crate) fn focal_scale_error(
         return None;
     }
     let [cx, cy] = camera.principal_point_px;
-    let mut normal = Matrix4::<f64>::zeros();
+    // The normal equations of d = a q + θ J q + t, J q = (−q_y, q_x) (the roll's sign follows
+    // the handedness; the shift and roll are nuisance parameters either way): with rows
+    // (q_x, −q_y, 1, 0) and (q_y, q_x, 0, 1), they need only Σ|q|², Σq and the right-hand
+    // side's sums; Σ|d|² gives the residual sum of squares (Σ|d|² − xᵀ Aᵀd at the solution).
+    let (mut qq, mut sx, mut sy, mut d_sq) = (0.0, 0.0, 0.0, 0.0);
     let mut rhs = Vector4::<f64>::zeros();
-    let mut rows: Vec<([f64; 2], [f64; 2])> = Vec::with_capacity(id.matched);
+    let mut rows = 0usize;
     for (c, star) in centroids.iter().zip(&id.catalog_index) {
         let Some(star) = star else { continue };
         let v = r * star_vectors[*star as usize];
         let Some((mut x, y)) = camera.cam_to_pixel(&v) else {
             continue;
         };
-        if id.mirrored {
-            x = camera.width_px - x;
-        }
         // The prediction about the principal point (mirrored with the image), and the residual.
-        let px = if id.mirrored {
+        let qx = if id.mirrored {
+            x = camera.width_px - x;
             x - (camera.width_px - cx)
         } else {
             x - cx
         };
-        let q = [px, y - cy];
-        let d = [c[0] - x, c[1] - y];
-        // d = a q + θ J q + t, J q = (−q_y, q_x) (the roll's sign follows the handedness; the
-        // shift and roll are nuisance parameters either way).
-        for (row, di) in [
-            Vector4::new(q[0], -q[1], 1.0, 0.0),
-            Vector4::new(q[1], q[0], 0.0, 1.0),
-        ]
-        .iter()
-        .zip(d)
-        {
-            normal += row * row.transpose();
-            rhs += row * di;
-        }
-        rows.push((q, d));
+        let (qy, dx, dy) = (y - cy, c[0] - x, c[1] - y);
+        qq += qx * qx + qy * qy;
+        (sx, sy) = (sx + qx, sy + qy);
+        rhs += Vector4::new(qx * dx + qy * dy, qx * dy - qy * dx, dx, dy);
+        d_sq += dx * dx + dy * dy;
+        rows += 1;
     }
-    if rows.len() < FOCAL_SCALE_MIN_MATCHES {
+    if rows < FOCAL_SCALE_MIN_MATCHES {
         return None;
     }
+    let m = rows as f64;
+    #[rustfmt::skip]
+    let normal = Matrix4::new(
+        qq, 0.0, sx, sy,
+        0.0, qq, -sy, sx,
+        sx, -sy, m, 0.0,
+        sy, sx, 0.0, m,
+    );
     let chol = normal.cholesky()?;
     let x = chol.solve(&rhs);
-    let inv = chol.inverse();
-    let sum_sq: f64 = rows
-        .iter()
-        .map(|(q, d)| {
-            let mx = x[0] * q[0] - x[1] * q[1] + x[2];
-            let my = x[0] * q[1] + x[1] * q[0] + x[3];
-            (d[0] - mx).powi(2) + (d[1] - my).powi(2)
-        })
-        .sum();
-    let sigma = (sum_sq / (2 * rows.len() - 4) as f64)
+    // (N⁻¹)₀₀, the scale's variance per unit noise.
+    let var = chol.solve(&Vector4::x())[0];
+    let sum_sq = (d_sq - x.dot(&rhs)).max(0.0);
+    let sigma = (sum_sq / (2 * rows - 4) as f64)
         .sqrt()
         .max(SIGMA_FLOOR_PX);
     let a = x[0];
-    let se = sigma * inv[(0, 0)].max(0.0).sqrt();
+    let se = sigma * var.max(0.0).sqrt();
     (a.is_finite() && se.is_finite()).then_some((a, se))
 }
 
