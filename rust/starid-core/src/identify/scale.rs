@@ -87,9 +87,7 @@ pub(crate) fn focal_scale_error(
     // (N⁻¹)₀₀, the scale's variance per unit noise.
     let var = chol.solve(&Vector4::x())[0];
     let sum_sq = (d_sq - x.dot(&rhs)).max(0.0);
-    let sigma = (sum_sq / (2 * rows - 4) as f64)
-        .sqrt()
-        .max(SIGMA_FLOOR_PX);
+    let sigma = (sum_sq / (2 * rows - 4) as f64).sqrt().max(SIGMA_FLOOR_PX);
     let a = x[0];
     let se = sigma * var.max(0.0).sqrt();
     (a.is_finite() && se.is_finite()).then_some((a, se))
