@@ -29,10 +29,11 @@ pub const FOCAL_RETRIES: usize = 4;
 const SIGMA_FLOOR_PX: f64 = 0.05;
 
 /// The focal length's relative error `a` (true = camera's × (1 + a)) that the matches of `id`
-/// show (`star_vectors`: the catalogue's unit vectors), with its standard error: the least-squares fit of the pixel residuals (observed minus
-/// predicted) by a scale about the principal point, a roll and a shift. The roll and shift
-/// absorb what the attitude fit left; only the scale is the camera's. `None` with fewer than
-/// [`FOCAL_SCALE_MIN_MATCHES`] matches or without an attitude.
+/// show (`star_vectors`: the catalogue's unit vectors), with its standard error: the
+/// least-squares fit of the pixel residuals (observed minus predicted) by a scale about the
+/// principal point, a roll and a shift. The roll and shift absorb what the attitude fit left;
+/// only the scale is the camera's. `None` with fewer than [`FOCAL_SCALE_MIN_MATCHES`] matches
+/// or without an attitude.
 pub(crate) fn focal_scale_error(
     centroids: &[[f64; 2]],
     camera: &Camera,
