@@ -4,7 +4,7 @@
 //! out miss their places by the scale error times their distance: the solution names a part of
 //! the frame, with its boresight pulled off, and may name an edge spot after a neighbour of its
 //! star. The residuals of such a solution form a radial pattern; a significant one sends the
-//! frame back to the search with the focal length it implies (see [`Solver::identify`]).
+//! frame back to the search with the focal length it implies (see [`super::Solver::identify`]).
 
 use nalgebra::{Matrix4, Vector3, Vector4};
 
