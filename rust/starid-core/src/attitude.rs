@@ -11,6 +11,8 @@
 //!   `(Σ (I − pᵢ pᵢᵀ)) δ = Σ pᵢ × bᵢ` and `R ← q(δ) R`, with `q(δ)` the unit quaternion along
 //!   `(1, δ/2)` (the rotation by `δ` to second order, with no trigonometry). At its fixed point the gradient of
 //!   `Σ bᵢ · R rᵢ` vanishes: the SVD optimum. It falls back to the SVD when a step fails.
+//!   Both sides come from two 3×3 sums made once, `B = Σ bᵢ rᵢᵀ` and `C = Σ rᵢ rᵢᵀ`:
+//!   `Σ pᵢ pᵢᵀ = R C Rᵀ`, and `Σ pᵢ × bᵢ` is the axial vector of `M − Mᵀ` with `M = B Rᵀ`.
 //! - [`triad`] gives the starting rotation from two pairs.
 
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
