@@ -107,3 +107,18 @@ def test_a_bad_file_does_not_stop_the_others(tmp_path: Path, capsys: pytest.Capt
     cat.write_text("id,ra_deg,dec_deg,mag\n1,10,oops,3\n")
     assert main(["identify", str(good), "--fov-deg", "12", "--size", "512x512", "--catalog", str(cat)]) == 2
     assert "cat.csv" in capsys.readouterr().err
+
+
+def test_a_field_of_view_given_off_is_corrected_unless_held_fixed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    frame = tmp_path / "f20.csv"
+    main(["simulate", str(frame), "--fov-deg", "20", "--size", "1024x1024", "--seed", "0", "--mag-limit", "6", "--noise-px", "0.2"])
+    capsys.readouterr()
+    args = ["identify", str(frame), "--fov-deg", "20.2", "--size", "1024x1024"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "corrected by the focal check: 20.00" in out and "identified 34/34" in out
+    assert main([*args, "--fixed-fov"]) == 0
+    assert "corrected" not in capsys.readouterr().out
+    assert main([*args, "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert abs(res["fov_deg"] - 20.0) < 0.01 and res["focal_sigma_px"] > 0

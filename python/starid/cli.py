@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import json
 import sys
 import time
@@ -59,6 +60,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="research only: print the method's raw answer without the shared verification (ids may be wrong)")
     ident.add_argument("--mag-offset", type=_mag_offset, default=0.0,
                        help="instrument minus catalogue magnitude (default 0), or 'unknown'")
+    ident.add_argument("--fixed-fov", action="store_true",
+                       help="hold --fov-deg fixed: no focal check (by default a solution whose residuals show the "
+                            "field of view a little off is searched again with the focal length they imply)")
     ident.add_argument("--json", action="store_true", help="print JSON instead of tables")
     ident.add_argument("--annotate", type=Path, metavar="OUT",
                        help="write the image annotated with its identification as a PNG (one image file; needs matplotlib)")
@@ -254,6 +258,7 @@ def _identify(args: argparse.Namespace) -> int:
             max_false_match_prob=args.max_false_prob,
             method=args.method,
             verify=not args.no_verify,
+            focal_check=not args.fixed_fov,
             # An image's magnitudes are instrumental: their zero point is unknown.
             mag_offset=None if k in images else args.mag_offset,
         )
@@ -275,6 +280,7 @@ def _identify(args: argparse.Namespace) -> int:
                     max_false_match_prob=args.max_false_prob,
                     method=args.method,
                     verify=not args.no_verify,
+                    focal_check=not args.fixed_fov,
                     mag_offset=args.mag_offset,
                 )
             )
@@ -333,6 +339,9 @@ def _identify(args: argparse.Namespace) -> int:
                         f"\nfield of view (estimated): {res.fov_deg:.5f} deg, focal length {res.focal_px:.3f} "
                         f"+- {res.focal_sigma_px:.3f} px"
                         if fov is None
+                        else f"\nfield of view corrected by the focal check: {res.fov_deg:.5f} deg (given {fov} deg), "
+                        f"focal length {res.focal_px:.3f} +- {res.focal_sigma_px:.3f} px"
+                        if not math.isnan(res.focal_sigma_px)
                         else ""
                     )
                 )
