@@ -133,6 +133,10 @@ pub struct Tracker {
     unseen: Vec<(u32, u32)>,
     /// Stars matched in the last frame but held back for a second frame, sorted.
     held: Vec<u32>,
+    /// The focal length a lost-in-space solution's focal check found for the camera given
+    /// (given, found, 1σ; px): the frames that follow are identified with it (see
+    /// [`crate::Identification::focal_length_px`]). Kept across `reset`: it is the camera's.
+    focal: Option<(f64, f64, f64)>,
 }
 
 impl Tracker {
@@ -178,6 +182,7 @@ impl Tracker {
             named: Vec::new(),
             unseen: Vec::new(),
             held: Vec::new(),
+            focal: None,
         })
     }
 
@@ -257,6 +262,16 @@ impl Tracker {
                 "the frame time must be finite, got {t_s}"
             )));
         }
+        // The focal length a focal check found for this camera, once it has.
+        let given = *camera;
+        let adopted = self
+            .focal
+            .filter(|&(g, _, _)| g == given.focal_length_px)
+            .map(|(_, f, s)| (f, s));
+        let camera = &Camera {
+            focal_length_px: adopted.map_or(given.focal_length_px, |(f, _)| f),
+            ..given
+        };
         let prediction = self.predict(t_s);
         let fallback = if self.config.fallback {
             HintFallback::LostInSpace
@@ -281,6 +296,13 @@ impl Tracker {
             }
             _ => solver.identify(centroids, magnitudes, camera, &self.identify)?,
         };
+        match (id.focal_length_px, adopted) {
+            (Some(f), _) => self.focal = Some((given.focal_length_px, f, id.focal_sigma_px)),
+            (None, Some((f, s))) if id.is_identified() => {
+                (id.focal_length_px, id.focal_sigma_px) = (Some(f), s);
+            }
+            _ => {}
+        }
         let mode = if id.hinted {
             TrackMode::Tracking
         } else {
