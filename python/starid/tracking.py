@@ -4,8 +4,11 @@ A star tracker spends most of its life tracking: it knows roughly where it point
 ago. :class:`Tracker` propagates the last attitude at the rate it measures across the recent
 solutions, identifies each frame from that prediction (hinted identification, the search
 region being the prediction's uncertainty), and falls back to lost in space when the
-prediction cannot explain a frame (after a loss of lock, or a manoeuvre). :func:`track` runs a
-recorded sequence; :func:`simulate_sequence` makes one with its truth.
+prediction cannot explain a frame (after a loss of lock, or a manoeuvre). When a lost-in-space
+solution's focal check finds the field of view given a little off (see ``focal_check`` in
+:func:`starid.identify`), the tracker identifies the frames that follow with the focal length
+it found. :func:`track` runs a recorded sequence; :func:`simulate_sequence` makes one with its
+truth.
 
 >>> import starid
 >>> seq = starid.simulate_sequence(frames=5, rate_deg_s=2.0, seed=3)
