@@ -922,34 +922,33 @@ impl Solver {
     ) -> Result<()> {
         let vectors = self.catalog.vectors();
         let mut cam = *camera;
+        // The scale error of the solution kept (`id` under `cam`).
+        let mut err = scale::focal_scale_error(centroids, &cam, id, vectors);
         for _ in 0..scale::FOCAL_RETRIES {
-            let Some(err) = scale::focal_scale_error(centroids, &cam, id, vectors)
-                .filter(|&e| scale::significant(e))
-            else {
+            let Some((a, _)) = err.filter(|&e| scale::significant(e)) else {
                 break;
             };
             if config.timeout.is_some_and(|t| start.elapsed() >= t) {
                 break;
             }
             let mut trial = cam;
-            trial.focal_length_px *= 1.0 + err.0;
+            trial.focal_length_px *= 1.0 + a;
             let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
             if !(again.verified && again.matched >= id.matched) {
                 break;
             }
             (cam, *id) = (trial, again);
             id.focal_length_px = Some(cam.focal_length_px);
+            err = scale::focal_scale_error(centroids, &cam, id, vectors);
         }
-        if id.focal_length_px.is_some() {
-            // What the final matches still show (below the search's threshold) refines the
-            // focal length: the attitude refitted and the residuals recomputed with it, the
-            // matches kept.
-            if let Some((a, se)) = scale::focal_scale_error(centroids, &cam, id, vectors) {
-                cam.focal_length_px *= 1.0 + a;
-                self.refit_matches(centroids, &cam, id);
-                id.focal_length_px = Some(cam.focal_length_px);
-                id.focal_sigma_px = se * cam.focal_length_px;
-            }
+        // What the final matches still show (below the search's threshold) refines the focal
+        // length found: the attitude refitted and the residuals recomputed with it, the matches
+        // kept.
+        if let (Some(_), Some((a, se))) = (id.focal_length_px, err) {
+            cam.focal_length_px *= 1.0 + a;
+            self.refit_matches(centroids, &cam, id);
+            id.focal_length_px = Some(cam.focal_length_px);
+            id.focal_sigma_px = se * cam.focal_length_px;
         }
         Ok(())
     }
@@ -1056,12 +1055,10 @@ impl Solver {
         search.stride = stride;
         search.deadline = config.timeout.map(|t| start + t);
         let mut status = Status::NoMatch;
-        let loosest = *ladder.last().expect("the ladder has a step");
-        let closing = |p: &Pass| p.bright && !p.gated && p.sigma_px == loosest;
         // Set when the gated passes spent the budget: only the closing pass runs then.
         let mut closing_only = false;
         for pass in passes {
-            if closing_only && !closing(&pass) {
+            if closing_only && !pass.closing {
                 continue;
             }
             search.pairs = if pass.bright {
@@ -1208,6 +1205,13 @@ impl Solver {
             sigma_px,
             cap,
             method: Method::Pyramid,
+            closing: false,
+        };
+        // The brightest few at the loosest step: cheap, and the last resort of a frame whose
+        // gated passes spent the budget (see CLOSING_LOOSE_PAIRS).
+        let closing_pass = Pass {
+            closing: true,
+            ..pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX)
         };
         let mut passes = Vec::with_capacity(8);
         if config.method == Method::Voting || config.method.is_seed() {
@@ -1284,11 +1288,10 @@ impl Solver {
             // A crowded frame whose calibrated magnitudes found nothing: the ungated passes
             // over its brightest spots, the fallback for magnitudes that mislead, would mostly
             // try false stars; they are left out beyond this many spots.
-            // The brightest few at the loosest step still close the search (see
-            // CLOSING_LOOSE_PAIRS).
+            // The brightest few at the loosest step still close the search.
             if n > HOSTILE_FALLBACK_MAX_SPOTS {
                 if bright && !early.is_empty() {
-                    passes.push(pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX));
+                    passes.push(closing_pass);
                 }
                 return passes;
             }
@@ -1299,7 +1302,7 @@ impl Solver {
                 .map(|&s| pass(false, config.max_search_stars, s, triangles_per_step)),
         );
         if bright {
-            passes.push(pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX));
+            passes.push(closing_pass);
         }
         // The loosest step, the last resort, on a share of the budget (see LOOSEST_STEP_SHARE).
         passes.push(Pass {
@@ -1358,6 +1361,9 @@ struct Pass {
     cap: usize,
     /// The method the pass runs (and reports).
     method: Method,
+    /// The loosest step's bright pass, which still runs when gated passes spent the budget
+    /// (see [`CLOSING_LOOSE_PAIRS`]).
+    closing: bool,
 }
 
 /// One frame of a batch: its centroids and, optionally, their magnitudes.
@@ -1530,18 +1536,16 @@ pub(crate) fn validate_centroids(
         keys.sort_unstable();
         keys.windows(2).any(|w| w[0] == w[1])
     };
-    let duplicate = if n <= DUPLICATE_PAIRWISE_MAX {
-        let mut keys = [(0u64, 0u64); DUPLICATE_PAIRWISE_MAX];
-        for (k, c) in keys.iter_mut().zip(centroids) {
-            *k = key(c);
-        }
-        (1..n).any(|j| keys[..j].contains(&keys[j]))
-    } else if n <= 64 {
+    let duplicate = if n <= 64 {
         let mut keys = [(0u64, 0u64); 64];
         for (k, c) in keys.iter_mut().zip(centroids) {
             *k = key(c);
         }
-        has_duplicate(&mut keys[..n])
+        if n <= DUPLICATE_PAIRWISE_MAX {
+            (1..n).any(|j| keys[..j].contains(&keys[j]))
+        } else {
+            has_duplicate(&mut keys[..n])
+        }
     } else {
         has_duplicate(&mut centroids.iter().map(key).collect::<Vec<_>>())
     };
