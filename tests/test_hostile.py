@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -27,6 +29,31 @@ def test_kelvins_scenes_identified_never_wrong() -> None:
             if res.ok:
                 assert res.mirrored == f.mirrored
     assert tried >= 5 and ok >= tried - 1  # a few stars among many false spots can fall short of the bound
+
+
+def test_a_batch_learns_its_zero_point_for_hostile_scenes() -> None:
+    # Instrument magnitudes: the catalogue's plus an unknown zero point and 0.3 mag scatter.
+    rng = np.random.default_rng(2)
+    scenes = [starid.simulate_scene("K1", seed=s) for s in range(30)]
+    mags = [f.magnitudes + 5.3 + rng.normal(0.0, 0.3, len(f.xy)) for f in scenes]
+    f0 = scenes[0]
+    kw = dict(fov_deg=f0.fov_deg, image_size=f0.image_size, magnitudes=mags, mag_offset=None)
+    alone = starid.identify_many([f.xy for f in scenes], learn_zero_point=False, **kw)
+    learned = starid.identify_many([f.xy for f in scenes], **kw)
+    for f, a, b in zip(scenes, alone, learned):
+        _no_wrong(f, a)
+        _no_wrong(f, b)
+        if b.learned_mag_offset is None:
+            assert np.array_equal(a.ids, b.ids)
+        else:
+            assert not a.ok and b.ok and b.learned_mag_offset == pytest.approx(5.3, abs=0.15)
+    # Measured: 17 of 30 alone, 27 with the learned zero point.
+    assert sum(r.ok for r in learned) >= sum(r.ok for r in alone) + 6
+    assert starid.IdentifyConfig().learn_zero_point is True
+    k = next(k for k, r in enumerate(learned) if r.learned_mag_offset is not None)
+    assert learned[k].to_dict()["learned_mag_offset"] == learned[k].learned_mag_offset
+    assert pickle.loads(pickle.dumps(learned[k])).learned_mag_offset == learned[k].learned_mag_offset
+    assert alone[k].to_dict()["learned_mag_offset"] is None
 
 
 def test_scene_families() -> None:

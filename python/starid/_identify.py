@@ -344,6 +344,15 @@ def identify(
         nominal focal length, say); the frame is searched again with the focal length they
         imply, reported as ``focal_px`` and ``fov_deg`` with ``focal_sigma_px``. False holds
         the given field of view fixed.
+    learn_zero_point : bool
+        :func:`identify_many` only (default True): with ``mag_offset=None`` (or one the
+        magnitudes do not fit), the frames identified from the brightness order alone measure
+        the magnitudes' zero point; when at least 3 agree (two thirds within 0.5 mag), the
+        frames nothing identified are searched again, magnitude-gated, with it (tolerance 2.5
+        times the frames' magnitude scatter, 0.5 to 1.5 mag) and report it as
+        ``learned_mag_offset``. This is what finds the few real stars among many false spots
+        when the magnitudes come from an instrument (an image's always do). False: every frame
+        alone.
 
     Returns
     -------
@@ -490,7 +499,14 @@ def identify_many(
 
     ``frames`` may also be images (paths or arrays, as :func:`identify` takes): they are read,
     extracted and identified in parallel threads (the core releases the GIL), each with its own
-    size; an image that cannot be read gets status ``"invalid_input"`` naming it.
+    size; an image that cannot be read gets status ``"invalid_input"`` naming it. With a known
+    field of view their spots are identified as one batch per image size, so that the images
+    learn their magnitudes' zero point together (below).
+
+    A batch of one camera shares a magnitude zero point: with ``mag_offset=None`` the frames
+    identified without it measure it, and the frames nothing identified are searched again
+    with it, magnitude-gated (``learn_zero_point``, on by default; such a frame reports it as
+    ``learned_mag_offset`` and its ``time_s`` counts both searches).
 
     Examples
     --------
@@ -580,8 +596,53 @@ def _image_batch(
             return _invalid(str(e) if str(name) in str(e) else f"{name}: {e}", 0)
 
     workers = (os.cpu_count() or 1) if threads is None else int(threads)
+    known_camera = kwargs.get("camera") is not None or fov_deg is not None
+    if not known_camera or kwargs.get("attitude_hint") is not None or kwargs.get("fov_range_deg") is not None:
+        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+            return list(pool.map(one, range(len(images))))
+    # A known camera: the spots of every image first, then the centroid lists identified as one
+    # batch per image size (identify_many), so that the images teach the batch their zero point
+    # (``learn_zero_point``).
+    from .images import extract_centroids
+
+    extract_kw = dict(kwargs.pop("extract", None) or {}, dark=kwargs.pop("dark", None), flat=kwargs.pop("flat", None))
+    size = kwargs.pop("image_size", None)
+    kwargs.pop("attitude_hint", None)
+    kwargs.pop("fov_range_deg", None)
+    kwargs.setdefault("mag_offset", None)
+
+    def spots(i: int) -> Any:
+        try:
+            c = extract_centroids(images[i], **extract_kw)
+            if size is not None and tuple(float(v) for v in size) != c.image_size:
+                raise InvalidInputError(f"image_size {size} differs from the image's {c.image_size}")
+            return c
+        except (ValueError, OSError, ImportError) as e:
+            name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
+            return str(e) if str(name) in str(e) else f"{name}: {e}"
+
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        return list(pool.map(one, range(len(images))))
+        found = list(pool.map(spots, range(len(images))))
+    results: list[Optional[Identification]] = [None] * len(images)
+    by_size: dict[tuple[float, float], list[int]] = {}
+    for i, c in enumerate(found):
+        if isinstance(c, str):
+            results[i] = _invalid(c, 0)
+        else:
+            by_size.setdefault(c.image_size, []).append(i)
+    for sz, idx in by_size.items():
+        cents = [found[i] for i in idx]
+        mags = [c.magnitudes if np.isfinite(c.magnitudes).all() else None for c in cents]
+        batch = identify_many(
+            [c.xy for c in cents], cat, fov_deg, None if kwargs.get("camera") is not None else sz,
+            magnitudes=mags, threads=threads, **kwargs,
+        )
+        for i, r in zip(idx, batch):
+            if r.status == "invalid_input":
+                name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
+                r = _invalid(f"{name}: {r.message}", len(r.ids))
+            results[i] = r
+    return cast(list[Identification], results)
 
 
 def _hinted_batch(
@@ -651,7 +712,7 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan], 0, "auto", message, (False, False, None))
+    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan, nan], 0, "auto", message, (False, False, None))
     return Identification._from_state(state)
 
 

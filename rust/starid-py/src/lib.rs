@@ -70,7 +70,7 @@ pub struct PyIdentifyConfig {
 }
 
 /// Names of the settings, in the constructor's order.
-const SETTINGS: [&str; 14] = [
+const SETTINGS: [&str; 15] = [
     "centroid_sigma_px",
     "max_false_match_prob",
     "min_matches",
@@ -85,6 +85,7 @@ const SETTINGS: [&str; 14] = [
     "brightness_order",
     "verify",
     "focal_check",
+    "learn_zero_point",
 ];
 
 #[pymethods]
@@ -94,7 +95,7 @@ impl PyIdentifyConfig {
                         max_search_stars=None, max_hypotheses=None, max_pairs_visited=None,
                         allow_mirrored=None, timeout_s=None, method=None, mag_offset=0.0,
                         mag_tolerance=None, brightness_order=None, verify=None,
-                        focal_check=None))]
+                        focal_check=None, learn_zero_point=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -110,6 +111,7 @@ impl PyIdentifyConfig {
         brightness_order: Option<bool>,
         verify: Option<bool>,
         focal_check: Option<bool>,
+        learn_zero_point: Option<bool>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
@@ -141,6 +143,7 @@ impl PyIdentifyConfig {
             brightness_order: brightness_order.unwrap_or(d.brightness_order),
             verify: verify.unwrap_or(d.verify),
             focal_check: focal_check.unwrap_or(d.focal_check),
+            learn_zero_point: learn_zero_point.unwrap_or(d.learn_zero_point),
         };
         inner.validate().map_err(PyStaridError)?;
         Ok(Self { inner })
@@ -170,6 +173,7 @@ impl PyIdentifyConfig {
         d.set_item("brightness_order", c.brightness_order)?;
         d.set_item("verify", c.verify)?;
         d.set_item("focal_check", c.focal_check)?;
+        d.set_item("learn_zero_point", c.learn_zero_point)?;
         Ok(d)
     }
 
@@ -248,6 +252,12 @@ impl PyIdentifyConfig {
     #[getter]
     fn focal_check(&self) -> bool {
         self.inner.focal_check
+    }
+    /// In ``identify_many``, learn the magnitude zero point from the frames identified without
+    /// it and search the ones nothing identified again with it; False: each frame alone.
+    #[getter]
+    fn learn_zero_point(&self) -> bool {
+        self.inner.learn_zero_point
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

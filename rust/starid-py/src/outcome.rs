@@ -99,6 +99,10 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 ///     given one proved off (the focal check, ``IdentifyConfig.focal_check``).
 /// focal_sigma_px : float
 ///     1 sigma of the estimated focal length (NaN when the given one was used).
+/// learned_mag_offset : float or None
+///     In ``identify_many``, the magnitude zero point the batch learned from its other frames
+///     and identified this frame with, magnitude-gated, after a search without it found nothing
+///     (``IdentifyConfig.learn_zero_point``); None for a frame identified as given.
 ///
 /// Plain values are computed once; the arrays are made on first access and kept, so a call
 /// builds no dict and runs no Python constructor.
@@ -123,6 +127,7 @@ pub struct PyIdentification {
     fov_deg: f64,
     focal_px: f64,
     focal_sigma_px: f64,
+    learned_mag_offset: Option<f64>,
     ids_array: PyOnceLock<Py<PyArray1<i64>>>,
     residuals_array: PyOnceLock<Py<PyArray1<f64>>>,
 }
@@ -171,6 +176,7 @@ impl PyIdentification {
             fov_deg: camera.fov_rad().to_degrees(),
             focal_px: camera.focal_length_px,
             focal_sigma_px,
+            learned_mag_offset: id.learned_mag_offset,
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
         }
@@ -195,7 +201,7 @@ type State = (
     bool,
     f64,
     usize,
-    [f64; 6],
+    [f64; 7],
     usize,
     String,
     Option<String>,
@@ -339,6 +345,10 @@ impl PyIdentification {
     fn focal_sigma_px(&self) -> f64 {
         self.focal_sigma_px
     }
+    #[getter]
+    fn learned_mag_offset(&self) -> Option<f64> {
+        self.learned_mag_offset
+    }
 
     /// Pickling (multiprocessing returns results this way): the plain values, rebuilt by
     /// `_from_state`.
@@ -359,6 +369,7 @@ impl PyIdentification {
                 me.fov_deg,
                 me.focal_px,
                 me.focal_sigma_px,
+                me.learned_mag_offset.unwrap_or(f64::NAN),
             ],
             me.hypotheses,
             me.method.to_string(),
@@ -414,7 +425,7 @@ impl PyIdentification {
         if ids.len() != residuals_arcsec.len() {
             return Err(PyValueError::new_err("ids and residuals differ in length"));
         }
-        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px] =
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned] =
             floats;
         Ok(Self {
             status,
@@ -436,6 +447,7 @@ impl PyIdentification {
             fov_deg,
             focal_px,
             focal_sigma_px,
+            learned_mag_offset: (!learned.is_nan()).then_some(learned),
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
         })
@@ -488,6 +500,7 @@ impl PyIdentification {
         d.set_item("fov_deg", json_float(py, self.fov_deg)?)?;
         d.set_item("focal_px", json_float(py, self.focal_px)?)?;
         d.set_item("focal_sigma_px", json_float(py, self.focal_sigma_px)?)?;
+        d.set_item("learned_mag_offset", self.learned_mag_offset)?;
         Ok(d)
     }
 

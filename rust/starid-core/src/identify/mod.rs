@@ -224,6 +224,12 @@ pub struct IdentifyConfig {
     /// and search the frame again with the one its residuals imply (the default; see
     /// [`scale`] and [`Identification::focal_length_px`]). `false` holds the camera fixed.
     pub focal_check: bool,
+    /// In a batch ([`Solver::identify_batch`]), learn the magnitude zero point from the frames
+    /// identified without it (the default): when [`ZERO_POINT_MIN_FRAMES`] or more of them
+    /// agree on one, the frames with magnitudes that nothing identified (status `no_match` or
+    /// `search_limit`) are searched again, magnitude-gated, with it. Only where the given
+    /// `mag_offset` is `None` or disagrees with the learned one. `false`: each frame alone.
+    pub learn_zero_point: bool,
 }
 
 /// How hypotheses are generated. Every method's hypotheses pass the same verification.
@@ -366,6 +372,7 @@ impl Default for IdentifyConfig {
             brightness_order: true,
             verify: true,
             focal_check: true,
+            learn_zero_point: true,
         }
     }
 }
@@ -514,6 +521,10 @@ pub struct Identification {
     pub focal_length_px: Option<f64>,
     /// 1σ of `focal_length_px` (px); NaN when that is `None`.
     pub focal_sigma_px: f64,
+    /// The magnitude zero point a batch learned from its other frames and searched this frame
+    /// with, magnitude-gated, after a first search without it found nothing (see
+    /// [`Solver::identify_batch`]); `None` for a frame identified as given.
+    pub learned_mag_offset: Option<f64>,
 }
 
 impl Identification {
@@ -530,6 +541,47 @@ impl Identification {
     /// ```
     pub fn is_identified(&self) -> bool {
         self.status == Status::Identified
+    }
+
+    /// The frame's magnitude zero point measured from its matches: the median of the
+    /// centroids' magnitudes less their catalogue stars', and the robust spread of those
+    /// differences about it (1.4826 × their median absolute deviation). `None` with fewer than
+    /// [`ZERO_POINT_MIN_MATCHES`] matches or `magnitudes` not one per centroid.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    /// let f = simulate(&cat, &cam, &SimConfig { mag_noise: 0.0, ..Default::default() }, 1).unwrap();
+    /// // An instrument's magnitudes: the catalogue's plus 7.5.
+    /// let m: Vec<f64> = f.magnitudes.iter().map(|m| m + 7.5).collect();
+    /// let cfg = IdentifyConfig { mag_offset: None, ..Default::default() };
+    /// let id = solver.identify(&f.centroids, Some(&m), &cam, &cfg).unwrap();
+    /// let (zero_point, spread) = id.zero_point(&m, &cat).unwrap();
+    /// assert!((zero_point - 7.5).abs() < 1e-9 && spread < 1e-9);
+    /// ```
+    pub fn zero_point(&self, magnitudes: &[f64], catalog: &Catalog) -> Option<(f64, f64)> {
+        if magnitudes.len() != self.catalog_index.len() {
+            return None;
+        }
+        let cat_mag = catalog.mag();
+        let mut d: Vec<f64> = self
+            .catalog_index
+            .iter()
+            .zip(magnitudes)
+            .filter_map(|(c, &m)| c.map(|s| m - cat_mag[s as usize]))
+            .filter(|d| d.is_finite())
+            .collect();
+        if d.len() < ZERO_POINT_MIN_MATCHES {
+            return None;
+        }
+        let median = median_of(&mut d);
+        for x in &mut d {
+            *x = (*x - median).abs();
+        }
+        Some((median, 1.4826 * median_of(&mut d)))
     }
 
     /// The outcome of a search that found nothing for `n` centroids.
@@ -557,9 +609,43 @@ impl Identification {
             verified: false,
             focal_length_px: None,
             focal_sigma_px: f64::NAN,
+            learned_mag_offset: None,
         }
     }
 }
+
+/// The median of `v` (reordered; not empty): the mean of the two middle values when even.
+fn median_of(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    let k = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[k]
+    } else {
+        0.5 * (v[k - 1] + v[k])
+    }
+}
+
+/// Fewest matches from which [`Identification::zero_point`] measures a frame's zero point.
+pub const ZERO_POINT_MIN_MATCHES: usize = 4;
+
+/// Fewest identified frames, each with a measured zero point, from which a batch learns its
+/// zero point (see [`Solver::identify_batch`]).
+pub const ZERO_POINT_MIN_FRAMES: usize = 3;
+
+/// How far (mag) from their median the frames' zero points may lie and still agree on one.
+pub const ZERO_POINT_AGREE_MAG: f64 = 0.5;
+
+/// Most of the frames' zero points that may disagree (see [`ZERO_POINT_AGREE_MAG`]) for the
+/// batch to learn one: a third.
+const ZERO_POINT_MAX_DISAGREE: f64 = 1.0 / 3.0;
+
+/// The learned search's magnitude tolerance, in the frames' typical spread of magnitudes about
+/// their zero point (never below the configured tolerance, nor above
+/// [`ZERO_POINT_MAX_TOLERANCE_MAG`]).
+pub const ZERO_POINT_TOLERANCE_SIGMAS: f64 = 2.5;
+
+/// Largest magnitude tolerance of a search with a learned zero point.
+pub const ZERO_POINT_MAX_TOLERANCE_MAG: f64 = 1.5;
 
 /// A catalogue with its pair index: everything identification needs. Immutable and `Sync`:
 /// share one across threads.
@@ -1370,6 +1456,49 @@ struct Pass {
 pub type FrameRef<'a> = (&'a [[f64; 2]], Option<&'a [f64]>);
 
 impl Solver {
+    /// The zero point a batch's identified frames agree on, and the magnitude tolerance to
+    /// search with it: at least [`ZERO_POINT_MIN_FRAMES`] frames with magnitudes measure one
+    /// ([`Identification::zero_point`]), at most a third of them lie more than
+    /// [`ZERO_POINT_AGREE_MAG`] from the median, which is the answer; the tolerance is
+    /// [`ZERO_POINT_TOLERANCE_SIGMAS`] times the agreeing frames' median spread, within the
+    /// configured tolerance and [`ZERO_POINT_MAX_TOLERANCE_MAG`]. `None` when
+    /// [`IdentifyConfig::learn_zero_point`] is off, or nothing agrees.
+    fn learn_zero_point(
+        &self,
+        frames: &[FrameRef<'_>],
+        out: &[Identification],
+        config: &IdentifyConfig,
+    ) -> Option<(f64, f64)> {
+        if !config.learn_zero_point {
+            return None;
+        }
+        let measured: Vec<(f64, f64)> = frames
+            .iter()
+            .zip(out)
+            .filter(|(_, id)| id.is_identified())
+            .filter_map(|(f, id)| id.zero_point(f.1?, &self.catalog))
+            .collect();
+        if measured.len() < ZERO_POINT_MIN_FRAMES {
+            return None;
+        }
+        let mut z: Vec<f64> = measured.iter().map(|m| m.0).collect();
+        let offset = median_of(&mut z);
+        let (agree, disagree): (Vec<&(f64, f64)>, Vec<_>) = measured
+            .iter()
+            .partition(|m| (m.0 - offset).abs() <= ZERO_POINT_AGREE_MAG);
+        if agree.len() < ZERO_POINT_MIN_FRAMES
+            || disagree.len() as f64 > ZERO_POINT_MAX_DISAGREE * measured.len() as f64
+        {
+            return None;
+        }
+        let mut spread: Vec<f64> = agree.iter().map(|m| m.1).collect();
+        let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * median_of(&mut spread)).clamp(
+            config.mag_tolerance,
+            ZERO_POINT_MAX_TOLERANCE_MAG.max(config.mag_tolerance),
+        );
+        Some((offset, tolerance))
+    }
+
     /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
     /// `threads` is not 1 (`None`: all cores). Results come in input order and do not depend on
     /// the thread count. A malformed frame does not stop the batch: its result has status
@@ -1434,7 +1563,7 @@ impl Solver {
         // Without the `parallel` feature every batch runs on the calling thread.
         #[cfg(not(feature = "parallel"))]
         let _ = threads;
-        let one = |f: &FrameRef<'_>| -> Identification {
+        let one = |f: &FrameRef<'_>, config: &IdentifyConfig| -> Identification {
             if cancel.load(Ordering::Relaxed) {
                 // Nothing is looked at; the chunk's end reports the cancellation.
                 return Identification::unidentified(Status::NoMatch, 0, 0, Duration::ZERO);
@@ -1450,22 +1579,67 @@ impl Solver {
                 id
             })
         };
-        let run = || -> Result<Vec<Identification>> {
-            let mut out = Vec::with_capacity(frames.len().min(BATCH_CHUNK));
-            for chunk in frames.chunks(BATCH_CHUNK) {
+        // The frames `which` picks (all of them: `None`), identified with `config`.
+        let run =
+            |which: Option<&[usize]>, config: &IdentifyConfig| -> Result<Vec<Identification>> {
+                let total = which.map_or(frames.len(), <[usize]>::len);
+                let mut out = Vec::with_capacity(total.min(BATCH_CHUNK));
+                let mut start = 0;
+                while start < total {
+                    let end = (start + BATCH_CHUNK).min(total);
+                    if cancel.load(Ordering::Relaxed) {
+                        return Err(Error::cancelled());
+                    }
+                    let frame = |k: usize| &frames[which.map_or(k, |w| w[k])];
+                    #[cfg(feature = "parallel")]
+                    if threads != Some(1) && end - start > 1 {
+                        use rayon::prelude::*;
+                        out.par_extend((start..end).into_par_iter().map(|k| one(frame(k), config)));
+                        start = end;
+                        continue;
+                    }
+                    out.extend((start..end).map(|k| one(frame(k), config)));
+                    start = end;
+                }
                 if cancel.load(Ordering::Relaxed) {
                     return Err(Error::cancelled());
                 }
-                #[cfg(feature = "parallel")]
-                if threads != Some(1) && chunk.len() > 1 {
-                    use rayon::prelude::*;
-                    out.par_extend(chunk.par_iter().map(one));
-                    continue;
-                }
-                out.extend(chunk.iter().map(one));
+                Ok(out)
+            };
+        let both = || -> Result<Vec<Identification>> {
+            let mut out = run(None, config)?;
+            // A zero point the identified frames agree on: the frames nothing identified
+            // without it are searched again, magnitude-gated.
+            let Some((offset, tolerance)) = self.learn_zero_point(frames, &out, config) else {
+                return Ok(out);
+            };
+            let redo: Vec<usize> = (0..frames.len())
+                .filter(|&i| {
+                    matches!(out[i].status, Status::NoMatch | Status::SearchLimit)
+                        && frames[i].1.is_some()
+                        && config
+                            .mag_offset
+                            .is_none_or(|o| (o - offset).abs() > config.mag_tolerance)
+                })
+                .collect();
+            if redo.is_empty() {
+                return Ok(out);
             }
-            if cancel.load(Ordering::Relaxed) {
-                return Err(Error::cancelled());
+            let learned = IdentifyConfig {
+                mag_offset: Some(offset),
+                mag_tolerance: tolerance,
+                ..config.clone()
+            };
+            for (i, mut id) in redo.iter().zip(run(Some(&redo), &learned)?) {
+                id.elapsed += out[*i].elapsed;
+                id.hypotheses += out[*i].hypotheses;
+                if id.is_identified() {
+                    id.learned_mag_offset = Some(offset);
+                    out[*i] = id;
+                } else {
+                    out[*i].elapsed = id.elapsed;
+                    out[*i].hypotheses = id.hypotheses;
+                }
             }
             Ok(out)
         };
@@ -1475,9 +1649,9 @@ impl Solver {
                 .num_threads(t)
                 .build()
                 .map_err(|e| Error::invalid_input(format!("cannot start {t} threads: {e}")))?
-                .install(run);
+                .install(both);
         }
-        run()
+        both()
     }
 }
 
@@ -1843,6 +2017,7 @@ impl Verified {
             verified: self.verified,
             focal_length_px: None,
             focal_sigma_px: f64::NAN,
+            learned_mag_offset: None,
         }
     }
 }

@@ -7,3 +7,4 @@ mod seeds;
 mod strategies;
 mod tracking;
 mod unknown_focal;
+mod zero_point;
