@@ -122,3 +122,23 @@ def test_a_field_of_view_given_off_is_corrected_unless_held_fixed(tmp_path: Path
     assert main([*args, "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert abs(res["fov_deg"] - 20.0) < 0.01 and res["focal_sigma_px"] > 0
+
+
+def test_many_files_learn_their_magnitudes_zero_point(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Kelvins-style scenes whose magnitudes carry an instrument zero point (5 mag): the frames
+    # identified from the brightness order measure it, and the rest are searched with it.
+    paths, truth = [], []
+    for seed in range(12):
+        f = starid.simulate_scene("K1", seed=seed)
+        p = tmp_path / f"k{seed}.csv"
+        rows = "".join(f"s{i},{x:.6f},{y:.6f},{m + 5.0:.4f}\n" for i, ((x, y), m) in enumerate(zip(f.xy, f.magnitudes)))
+        p.write_text("label,x,y,mag\n" + rows)
+        paths.append(str(p))
+        truth.append(f.true_ids)
+    assert main(["identify", *paths, "--fov-deg", "10", "--size", "1920x1440", "--json"]) in (0, 1)
+    res = json.loads(capsys.readouterr().out)
+    learned = [r["learned_mag_offset"] for r in res if r["learned_mag_offset"] is not None]
+    assert len(learned) >= 2 and all(abs(z - 5.0) < 0.1 for z in learned)
+    for r, ids in zip(res, truth):
+        named = np.array(r["ids"]) >= 0
+        assert np.array_equal(np.array(r["ids"])[named], ids[named])

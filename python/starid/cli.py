@@ -263,29 +263,36 @@ def _identify(args: argparse.Namespace) -> int:
             mag_offset=None if k in images else args.mag_offset,
         )
 
-    solved: list[Identification] = []
-    if fov is not None and len(files) > 20 and not unreadable and not images:
-        # Many frames of one camera: identify them in batches on every core (Rust threads),
-        # with a progress bar between batches.
-        for lo in range(0, len(files), BATCH):
-            chunk = star_lists[lo : lo + BATCH]
-            solved.extend(
-                identify_many(
-                    [s.xy for s in chunk],
+    solved: dict[int, Identification] = {}
+    if fov is not None and fov_range is None and len(files) - len(unreadable) >= 3:
+        # Many frames of one camera: identified in batches on every core (Rust threads), with a
+        # progress bar between batches; one batch per sensor size and kind of file, so that the
+        # frames learn their magnitudes' zero point together (an image's is always unknown).
+        groups: dict[tuple[Any, bool], list[int]] = {}
+        for k in range(len(files)):
+            if k not in unreadable:
+                groups.setdefault((sizes.get(k, size), k in images), []).append(k)
+        for (group_size, are_images), members in groups.items():
+            for lo in range(0, len(members), BATCH):
+                chunk = members[lo : lo + BATCH]
+                batch = identify_many(
+                    [star_lists[k].xy for k in chunk],
                     catalog=catalog,
                     fov_deg=fov,
-                    image_size=size,
-                    magnitudes=None if args.no_magnitudes else [s.magnitudes for s in chunk],
+                    image_size=group_size,
+                    magnitudes=None if args.no_magnitudes else [star_lists[k].magnitudes for k in chunk],
                     centroid_sigma_px=args.sigma_px,
                     max_false_match_prob=args.max_false_prob,
                     method=args.method,
                     verify=not args.no_verify,
                     focal_check=not args.fixed_fov,
-                    mag_offset=args.mag_offset,
+                    mag_offset=None if are_images else args.mag_offset,
                 )
-            )
-            if show_progress:
-                _progress(len(solved), len(files), sum(r.ok for r in solved), time.perf_counter() - t0)
+                for k, r in zip(chunk, batch):
+                    if r.status != "invalid_input":  # identified alone below, for its error line
+                        solved[k] = r
+                if show_progress:
+                    _progress(len(solved), len(files), sum(r.ok for r in solved.values()), time.perf_counter() - t0)
     for n, path in enumerate(files):
         stars = star_lists[n]
         if n in unreadable:
@@ -294,7 +301,7 @@ def _identify(args: argparse.Namespace) -> int:
             if args.json:
                 results.append({"file": str(path), "status": "invalid_input", "ok": False, "message": unreadable[n]})
             continue
-        if n < len(solved):
+        if n in solved:
             res = solved[n]
         else:
             try:
