@@ -7,7 +7,10 @@ region being the prediction's uncertainty), and falls back to lost in space when
 prediction cannot explain a frame (after a loss of lock, or a manoeuvre). When a lost-in-space
 solution's focal check finds the field of view given a little off (see ``focal_check`` in
 :func:`starid.identify`), the tracker identifies the frames that follow with the focal length
-it found. :func:`track` runs a recorded sequence; :func:`simulate_sequence` makes one with its
+it found. Likewise, with magnitudes in an instrument's system (``mag_offset=None``, or one they
+do not fit), it measures their zero point on its solutions and, once three agree, searches the
+frames that follow magnitude-gated with it (``learn_zero_point``; reported as
+``learned_mag_offset``). :func:`track` runs a recorded sequence; :func:`simulate_sequence` makes one with its
 truth.
 
 >>> import starid

@@ -12,6 +12,8 @@
 //! `cargo run --release --example tracking -- [FRAMES_PER_CASE] [SEQUENCE_FRAMES_PER_RATE]`
 //! (`STARID_CONFIRM=1`: sequences with `TrackerConfig::confirm_new_stars`; `STARID_UNSEEN=K`: with
 //! `confirm_unseen_frames` K, 0 for off; `STARID_SEQ_SEED=N`: another set of sequences;
+//! `STARID_MAG_ZERO=Z`: the sequences' magnitudes Z mag off the catalogue's system (an
+//! instrument's), learned by the tracker unless `STARID_NO_LEARN=1`;
 //! `STARID_WRONG=1`: list the wrong ids; `STARID_MISSED=1`: the real stars left unnamed, with where the
 //! solution puts their star; `STARID_REPEAT=R`: part 1 times each frame R more times and keeps its
 //! fastest; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
@@ -285,20 +287,22 @@ fn main() {
                 }),
             ..TrackerConfig::default()
         };
-        let mut tracker = Tracker::new(tracker_cfg, cfg.clone()).expect("tracker");
+        // STARID_MAG_ZERO=Z: the spots' magnitudes in an instrument's system, Z mag off the
+        // catalogue's (STARID_NO_LEARN=1: the tracker does not learn it).
+        let zero: f64 = std::env::var("STARID_MAG_ZERO").map_or(0.0, |v| v.parse().expect("Z"));
+        let seq_id_cfg = IdentifyConfig {
+            learn_zero_point: std::env::var("STARID_NO_LEARN").is_err(),
+            ..cfg.clone()
+        };
+        let mut tracker = Tracker::new(tracker_cfg, seq_id_cfg).expect("tracker");
         let (mut ok, mut track, mut bad, mut n, mut unid_real) = (0, 0, 0, 0, 0);
         let (right_before, real_before) = (all_right, all_real);
         let mut regained = None;
         for (i, f) in seq.iter().enumerate() {
+            let mags: Vec<f64> = f.frame.magnitudes.iter().map(|m| m + zero).collect();
             let t = Instant::now();
             let step = tracker
-                .update(
-                    &solver,
-                    &f.frame.centroids,
-                    Some(&f.frame.magnitudes),
-                    &cam,
-                    f.t_s,
-                )
+                .update(&solver, &f.frame.centroids, Some(&mags), &cam, f.t_s)
                 .expect("update");
             times.push(t.elapsed().as_secs_f64());
             if seq_cfg.blank.contains(&i) {

@@ -137,7 +137,15 @@ pub struct Tracker {
     /// (given, found, 1σ; px): the frames that follow are identified with it (see
     /// [`crate::Identification::focal_length_px`]). Kept across `reset`: it is the camera's.
     focal: Option<(f64, f64, f64)>,
+    /// The magnitude zero points (and their spreads) the last solutions measured
+    /// ([`Identification::zero_point`]), oldest first: with [`IdentifyConfig::learn_zero_point`]
+    /// the frames that follow are searched with the one they agree on, as a batch's are, where
+    /// the configured `mag_offset` is `None` or disagrees. Kept across `reset`: it is the camera's.
+    zero_points: std::collections::VecDeque<(f64, f64)>,
 }
+
+/// Most zero points a [`Tracker`] keeps.
+const ZERO_POINT_HISTORY: usize = 16;
 
 impl Tracker {
     /// A tracker with no lock yet.
@@ -183,6 +191,7 @@ impl Tracker {
             unseen: Vec::new(),
             held: Vec::new(),
             focal: None,
+            zero_points: std::collections::VecDeque::new(),
         })
     }
 
@@ -272,6 +281,26 @@ impl Tracker {
             focal_length_px: adopted.map_or(given.focal_length_px, |(f, _)| f),
             ..given
         };
+        // The zero point the last solutions agree on, where the configuration has none that fits.
+        let learned = self.learned_zero_point().filter(|&(z, _)| {
+            magnitudes.is_some()
+                && self
+                    .identify
+                    .mag_offset
+                    .is_none_or(|o| (o - z).abs() > self.identify.mag_tolerance)
+        });
+        let with_zero_point;
+        let config = match learned {
+            Some((z, tolerance)) => {
+                with_zero_point = IdentifyConfig {
+                    mag_offset: Some(z),
+                    mag_tolerance: tolerance,
+                    ..self.identify.clone()
+                };
+                &with_zero_point
+            }
+            None => &self.identify,
+        };
         let prediction = self.predict(t_s);
         let fallback = if self.config.fallback {
             HintFallback::LostInSpace
@@ -285,17 +314,19 @@ impl Tracker {
                     uncertainty_rad: u.min(crate::identify::MAX_HINT_UNCERTAINTY_RAD),
                     mirrored: Some(mirrored),
                 };
-                solver.identify_hinted(
-                    centroids,
-                    magnitudes,
-                    camera,
-                    &self.identify,
-                    &hint,
-                    fallback,
-                )?
+                solver.identify_hinted(centroids, magnitudes, camera, config, &hint, fallback)?
             }
-            _ => solver.identify(centroids, magnitudes, camera, &self.identify)?,
+            _ => solver.identify(centroids, magnitudes, camera, config)?,
         };
+        if id.is_identified() {
+            id.learned_mag_offset = learned.map(|l| l.0);
+            if let Some(zp) = magnitudes.and_then(|m| id.zero_point(m, solver.catalog())) {
+                self.zero_points.push_back(zp);
+                if self.zero_points.len() > ZERO_POINT_HISTORY {
+                    self.zero_points.pop_front();
+                }
+            }
+        }
         match (id.focal_length_px, adopted) {
             (Some(f), _) => self.focal = Some((given.focal_length_px, f, id.focal_sigma_px)),
             (None, Some((f, s))) if id.is_identified() => {
@@ -372,6 +403,17 @@ impl Tracker {
     }
 }
 impl Tracker {
+    /// The zero point the kept ones agree on and the tolerance to search with it, as a batch
+    /// learns it (see [`Solver::identify_batch`]); `None` with
+    /// [`IdentifyConfig::learn_zero_point`] off.
+    fn learned_zero_point(&self) -> Option<(f64, f64)> {
+        if !self.identify.learn_zero_point {
+            return None;
+        }
+        let (z, s): (Vec<f64>, Vec<f64>) = self.zero_points.iter().copied().unzip();
+        crate::identify::agreed_zero_point(&z, &s, self.identify.mag_tolerance)
+    }
+
     /// Unname the stars `id` names that the last `k` solutions in a row had well inside the
     /// sensor without naming them, unless the last frame matched them too (they are in
     /// `self.held`); the ones unnamed go to `held_now` (see

@@ -625,6 +625,35 @@ fn median_of(v: &mut [f64]) -> f64 {
     }
 }
 
+/// The zero point frames agree on, from each one's zero point `z` and spread `s`, and the
+/// magnitude tolerance to search with it: at least [`ZERO_POINT_MIN_FRAMES`] of them, at most a
+/// third more than [`ZERO_POINT_AGREE_MAG`] from the median, which is the answer; the tolerance
+/// is [`ZERO_POINT_TOLERANCE_SIGMAS`] times the agreeing frames' median spread, at least
+/// `min_tolerance` and at most [`ZERO_POINT_MAX_TOLERANCE_MAG`] (or `min_tolerance` if more).
+pub(crate) fn agreed_zero_point(z: &[f64], s: &[f64], min_tolerance: f64) -> Option<(f64, f64)> {
+    if z.len() < ZERO_POINT_MIN_FRAMES {
+        return None;
+    }
+    let offset = median_of(&mut z.to_vec());
+    let mut spread: Vec<f64> = z
+        .iter()
+        .zip(s)
+        .filter(|(z, _)| (*z - offset).abs() <= ZERO_POINT_AGREE_MAG)
+        .map(|(_, s)| *s)
+        .collect();
+    let disagree = z.len() - spread.len();
+    if spread.len() < ZERO_POINT_MIN_FRAMES
+        || disagree as f64 > ZERO_POINT_MAX_DISAGREE * z.len() as f64
+    {
+        return None;
+    }
+    let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * median_of(&mut spread)).clamp(
+        min_tolerance,
+        ZERO_POINT_MAX_TOLERANCE_MAG.max(min_tolerance),
+    );
+    Some((offset, tolerance))
+}
+
 /// Fewest matches from which [`Identification::zero_point`] measures a frame's zero point.
 pub const ZERO_POINT_MIN_MATCHES: usize = 4;
 
@@ -1472,31 +1501,13 @@ impl Solver {
         if !config.learn_zero_point {
             return None;
         }
-        let measured: Vec<(f64, f64)> = frames
+        let (z, s): (Vec<f64>, Vec<f64>) = frames
             .iter()
             .zip(out)
             .filter(|(_, id)| id.is_identified())
             .filter_map(|(f, id)| id.zero_point(f.1?, &self.catalog))
-            .collect();
-        if measured.len() < ZERO_POINT_MIN_FRAMES {
-            return None;
-        }
-        let mut z: Vec<f64> = measured.iter().map(|m| m.0).collect();
-        let offset = median_of(&mut z);
-        let (agree, disagree): (Vec<&(f64, f64)>, Vec<_>) = measured
-            .iter()
-            .partition(|m| (m.0 - offset).abs() <= ZERO_POINT_AGREE_MAG);
-        if agree.len() < ZERO_POINT_MIN_FRAMES
-            || disagree.len() as f64 > ZERO_POINT_MAX_DISAGREE * measured.len() as f64
-        {
-            return None;
-        }
-        let mut spread: Vec<f64> = agree.iter().map(|m| m.1).collect();
-        let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * median_of(&mut spread)).clamp(
-            config.mag_tolerance,
-            ZERO_POINT_MAX_TOLERANCE_MAG.max(config.mag_tolerance),
-        );
-        Some((offset, tolerance))
+            .unzip();
+        agreed_zero_point(&z, &s, config.mag_tolerance)
     }
 
     /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
