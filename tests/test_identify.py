@@ -127,7 +127,7 @@ def test_results_are_immutable_and_pickle() -> None:
         assert repr(back) == repr(res)
     assert res.ok and not np.isnan(res.focal_sigma_px)
     with pytest.raises(ValueError, match="status"):
-        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 7, 0, "pyramid", None, (False, False, None)))
+        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 8, 0, "pyramid", None, (False, False, None)))
 
 
 def test_camera_object_matches_keywords_and_round_trips(bundled: starid.Catalog) -> None:
@@ -281,3 +281,26 @@ def test_a_field_of_view_given_off_is_corrected_and_reported() -> None:
         assert np.isnan(exact.focal_sigma_px) and exact.fov_deg == 20.0
     # 6 of the 12 corrected, 187 -> 342 stars named when this was written.
     assert corrected >= 4 and named > named_fixed + 80
+
+
+def test_an_unknown_radial_distortion_is_found_and_written_to_the_wcs() -> None:
+    # A 20 deg lens with barrel distortion k1 = -0.2 identified as an ideal camera: the focal
+    # check fits the distortion with the focal length and searches again with both.
+    found, named, named_fixed = 0, 0, 0
+    for seed in range(8):
+        f = starid.simulate(fov_deg=20.0, image_size=(1024, 1024), seed=seed, noise_px=0.2, mag_limit=6.0, radial_k1=-0.2)
+        kw = dict(fov_deg=20.0, image_size=(1024, 1024), magnitudes=f.magnitudes)
+        res = starid.identify(f.xy, **kw)
+        fixed = starid.identify(f.xy, focal_check=False, **kw)
+        assert fixed.k1 == 0.0
+        named, named_fixed = named + res.n_matched, named_fixed + fixed.n_matched
+        known = res.ids >= 0
+        assert np.array_equal(res.ids[known], f.true_ids[known])
+        if res.k1 != 0.0:
+            found += 1
+            assert res.k1 == pytest.approx(-0.2, abs=0.05)
+            assert res.to_dict()["k1"] == res.k1
+            header = starid.wcs.wcs_header(res, (1024, 1024))
+            assert header["CTYPE1"] == "RA---TAN-SIP" and header["A_3_0"] != 0.0
+    # 7 of 8 found, 257 -> 285 stars named when this was written.
+    assert found >= 5 and named > named_fixed + 15

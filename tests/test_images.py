@@ -177,8 +177,12 @@ def test_sip_wcs_of_a_distorted_camera(bundled: starid.Catalog, mirrored: bool) 
     sep = _separations(sw.wcs(res, size, camera=cam), f.xy[m], bundled, res.ids[m])
     # Every identified centroid lands on its star within the identification's own residuals.
     assert np.allclose(sep, res.residuals_arcsec[m], atol=0.05)
-    # Without the distortion terms the corners are off by arcminutes.
-    assert _separations(sw.wcs(res, size), f.xy[m], bundled, res.ids[m]).max() > 60.0
+    # The identification carries its camera's k1 (res.k1), so the WCS made without the camera is
+    # the same here (principal point at the centre).
+    assert res.k1 == k1
+    assert np.allclose(_separations(sw.wcs(res, size), f.xy[m], bundled, res.ids[m]), sep, atol=1e-6)
+    # With an ideal camera's terms instead the corners are off by arcminutes.
+    assert _separations(sw.wcs(res, size, camera=starid.Camera(size, 20.0)), f.xy[m], bundled, res.ids[m]).max() > 60.0
     # A refined fit (focal length, principal point, k1) carries its own camera into the WCS.
     fit = sp.refine(res, f.xy, bundled, size, fit_principal_point=True, fit_k1=True)
     assert abs(fit.k1 - k1) < 0.01

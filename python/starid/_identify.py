@@ -342,8 +342,10 @@ def identify(
         With ``fov_deg`` given (default True): when a solution's residuals grow with their
         distance from the image centre, the field of view was given a little off (a lens's
         nominal focal length, say); the frame is searched again with the focal length they
-        imply, reported as ``focal_px`` and ``fov_deg`` with ``focal_sigma_px``. False holds
-        the given field of view fixed.
+        imply, reported as ``focal_px`` and ``fov_deg`` with ``focal_sigma_px``. Residuals that
+        grow with the cube of the distance say the same of the lens's radial distortion: the
+        one found is reported as ``k1`` (and written to the WCS). False holds the given camera
+        fixed.
     learn_zero_point : bool
         :func:`identify_many` only (default True): with ``mag_offset=None`` (or one the
         magnitudes do not fit), the frames identified from the brightness order alone measure
@@ -712,7 +714,7 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan, nan], 0, "auto", message, (False, False, None))
+    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan, nan, 0.0], 0, "auto", message, (False, False, None))
     return Identification._from_state(state)
 
 

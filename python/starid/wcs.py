@@ -26,8 +26,9 @@ __all__ = ["wcs", "wcs_header"]
 
 def _camera_terms(solution: Any, camera: Any, w: float, h: float) -> tuple[float, float, float, float]:
     """Focal length, principal point (in the image's own pixels) and ``k1`` of the solution's
-    camera: a fit's own, else the camera given (with the focal length the focal check found,
-    if it did), else the identification's focal length at the sensor centre, no distortion."""
+    camera: a fit's own, else the camera given (with the focal length and distortion the focal
+    check found, if it did), else the identification's focal length and distortion at the sensor
+    centre."""
     if hasattr(solution, "principal_point_px"):  # a PointingFit: already in the image's pixels
         cx, cy = solution.principal_point_px
         return float(solution.focal_px), float(cx), float(cy), float(solution.k1)
@@ -38,9 +39,11 @@ def _camera_terms(solution: Any, camera: Any, w: float, h: float) -> tuple[float
         f = camera.focal_length_px
         if math.isfinite(getattr(solution, "focal_sigma_px", math.nan)):
             f = solution.focal_px
+        # The distortion the focal check found, where it replaced the camera's (else the same).
+        k1 = getattr(solution, "k1", camera.k1) if math.isfinite(getattr(solution, "focal_sigma_px", math.nan)) else camera.k1
         # A mirrored frame is seen by the camera with x reversed (x -> W - x).
-        return float(f), float(w - cx if solution.mirrored else cx), float(cy), float(camera.k1)
-    return float(solution.focal_px), w / 2, h / 2, 0.0
+        return float(f), float(w - cx if solution.mirrored else cx), float(cy), float(k1)
+    return float(solution.focal_px), w / 2, h / 2, float(getattr(solution, "k1", 0.0))
 
 
 def wcs_header(solution: Any, image_size: tuple[float, float], camera: Optional[Any] = None) -> dict[str, Any]:

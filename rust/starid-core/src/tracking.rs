@@ -133,15 +133,28 @@ pub struct Tracker {
     unseen: Vec<(u32, u32)>,
     /// Stars matched in the last frame but held back for a second frame, sorted.
     held: Vec<u32>,
-    /// The focal length a lost-in-space solution's focal check found for the camera given
-    /// (given, found, 1σ; px): the frames that follow are identified with it (see
+    /// The focal length (and distortion) a lost-in-space solution's focal check found for the
+    /// camera given: the frames that follow are identified with it (see
     /// [`crate::Identification::focal_length_px`]). Kept across `reset`: it is the camera's.
-    focal: Option<(f64, f64, f64)>,
+    focal: Option<FoundCamera>,
     /// The magnitude zero points (and their spreads) the last solutions measured
     /// ([`Identification::zero_point`]), oldest first: with [`IdentifyConfig::learn_zero_point`]
     /// the frames that follow are searched with the one they agree on, as a batch's are, where
     /// the configured `mag_offset` is `None` or disagrees. Kept across `reset`: it is the camera's.
     zero_points: std::collections::VecDeque<(f64, f64)>,
+}
+
+/// What a focal check found of the camera a [`Tracker`] was given.
+#[derive(Debug, Clone, Copy)]
+struct FoundCamera {
+    /// The given camera's focal length and distortion (px, `k1`): a different camera starts over.
+    given_focal_px: f64,
+    given_k1: f64,
+    /// The focal length found and its 1σ, px.
+    focal_px: f64,
+    sigma_px: f64,
+    /// The distortion found, when it was corrected.
+    k1: Option<f64>,
 }
 
 /// Most zero points a [`Tracker`] keeps.
@@ -271,14 +284,14 @@ impl Tracker {
                 "the frame time must be finite, got {t_s}"
             )));
         }
-        // The focal length a focal check found for this camera, once it has.
+        // The focal length (and distortion) a focal check found for this camera, once it has.
         let given = *camera;
         let adopted = self
             .focal
-            .filter(|&(g, _, _)| g == given.focal_length_px)
-            .map(|(_, f, s)| (f, s));
+            .filter(|c| c.given_focal_px == given.focal_length_px && c.given_k1 == given.k1);
         let camera = &Camera {
-            focal_length_px: adopted.map_or(given.focal_length_px, |(f, _)| f),
+            focal_length_px: adopted.map_or(given.focal_length_px, |c| c.focal_px),
+            k1: adopted.and_then(|c| c.k1).unwrap_or(given.k1),
             ..given
         };
         // The zero point the last solutions agree on, where the configuration has none that fits.
@@ -328,9 +341,18 @@ impl Tracker {
             }
         }
         match (id.focal_length_px, adopted) {
-            (Some(f), _) => self.focal = Some((given.focal_length_px, f, id.focal_sigma_px)),
-            (None, Some((f, s))) if id.is_identified() => {
-                (id.focal_length_px, id.focal_sigma_px) = (Some(f), s);
+            (Some(f), _) => {
+                self.focal = Some(FoundCamera {
+                    given_focal_px: given.focal_length_px,
+                    given_k1: given.k1,
+                    focal_px: f,
+                    sigma_px: id.focal_sigma_px,
+                    k1: id.k1.or(adopted.and_then(|c| c.k1)),
+                });
+            }
+            (None, Some(c)) if id.is_identified() => {
+                (id.focal_length_px, id.focal_sigma_px, id.k1) =
+                    (Some(c.focal_px), c.sigma_px, c.k1);
             }
             _ => {}
         }

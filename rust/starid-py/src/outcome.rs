@@ -99,6 +99,9 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 ///     given one proved off (the focal check, ``IdentifyConfig.focal_check``).
 /// focal_sigma_px : float
 ///     1 sigma of the estimated focal length (NaN when the given one was used).
+/// k1 : float
+///     The radial distortion of the camera the solution was found with: the given camera's, or
+///     the one the focal check found when the given one proved off (0 without a camera).
 /// learned_mag_offset : float or None
 ///     In ``identify_many``, the magnitude zero point the batch learned from its other frames
 ///     and identified this frame with, magnitude-gated, after a search without it found nothing
@@ -128,6 +131,7 @@ pub struct PyIdentification {
     focal_px: f64,
     focal_sigma_px: f64,
     learned_mag_offset: Option<f64>,
+    k1: f64,
     ids_array: PyOnceLock<Py<PyArray1<i64>>>,
     residuals_array: PyOnceLock<Py<PyArray1<f64>>>,
 }
@@ -146,6 +150,7 @@ impl PyIdentification {
             Some(f) => (
                 &Camera {
                     focal_length_px: f,
+                    k1: id.k1.unwrap_or(camera.k1),
                     ..*camera
                 },
                 id.focal_sigma_px,
@@ -177,6 +182,7 @@ impl PyIdentification {
             focal_px: camera.focal_length_px,
             focal_sigma_px,
             learned_mag_offset: id.learned_mag_offset,
+            k1: camera.k1,
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
         }
@@ -201,7 +207,7 @@ type State = (
     bool,
     f64,
     usize,
-    [f64; 7],
+    [f64; 8],
     usize,
     String,
     Option<String>,
@@ -349,6 +355,10 @@ impl PyIdentification {
     fn learned_mag_offset(&self) -> Option<f64> {
         self.learned_mag_offset
     }
+    #[getter]
+    fn k1(&self) -> f64 {
+        self.k1
+    }
 
     /// Pickling (multiprocessing returns results this way): the plain values, rebuilt by
     /// `_from_state`.
@@ -370,6 +380,7 @@ impl PyIdentification {
                 me.focal_px,
                 me.focal_sigma_px,
                 me.learned_mag_offset.unwrap_or(f64::NAN),
+                me.k1,
             ],
             me.hypotheses,
             me.method.to_string(),
@@ -425,7 +436,7 @@ impl PyIdentification {
         if ids.len() != residuals_arcsec.len() {
             return Err(PyValueError::new_err("ids and residuals differ in length"));
         }
-        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned] =
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1] =
             floats;
         Ok(Self {
             status,
@@ -448,6 +459,7 @@ impl PyIdentification {
             focal_px,
             focal_sigma_px,
             learned_mag_offset: (!learned.is_nan()).then_some(learned),
+            k1,
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
         })
@@ -501,6 +513,7 @@ impl PyIdentification {
         d.set_item("focal_px", json_float(py, self.focal_px)?)?;
         d.set_item("focal_sigma_px", json_float(py, self.focal_sigma_px)?)?;
         d.set_item("learned_mag_offset", self.learned_mag_offset)?;
+        d.set_item("k1", self.k1)?;
         Ok(d)
     }
 

@@ -525,6 +525,11 @@ pub struct Identification {
     /// with, magnitude-gated, after a first search without it found nothing (see
     /// [`Solver::identify_batch`]); `None` for a frame identified as given.
     pub learned_mag_offset: Option<f64>,
+    /// The radial distortion (`k1`, see [`Camera`]) the solution was found with when the
+    /// camera's proved off: the focal check (see [`scale`]) fits it with the focal length from
+    /// ten matches on, and a significant error sends the frame back to the search with both
+    /// corrected (then `focal_length_px` is set too). `None`: the camera's own.
+    pub k1: Option<f64>,
 }
 
 impl Identification {
@@ -610,6 +615,7 @@ impl Identification {
             focal_length_px: None,
             focal_sigma_px: f64::NAN,
             learned_mag_offset: None,
+            k1: None,
         }
     }
 }
@@ -1037,10 +1043,10 @@ impl Solver {
     ) -> Result<()> {
         let vectors = self.catalog.vectors();
         let mut cam = *camera;
-        // The scale error of the solution kept (`id` under `cam`).
-        let mut err = scale::focal_scale_error(centroids, &cam, id, vectors);
+        // The camera's errors that the solution kept shows (`id` under `cam`).
+        let mut err = scale::camera_error(centroids, &cam, id, vectors);
         for _ in 0..scale::FOCAL_RETRIES {
-            let Some((a, _)) = err.filter(|&e| scale::significant(e)) else {
+            let Some(((a, b), strict)) = err.and_then(|e| e.correction()) else {
                 break;
             };
             if config.timeout.is_some_and(|t| start.elapsed() >= t) {
@@ -1048,22 +1054,34 @@ impl Solver {
             }
             let mut trial = cam;
             trial.focal_length_px *= 1.0 + a;
+            if b != 0.0 {
+                let Ok(t) = trial.with_k1(cam.k1 + b) else {
+                    break;
+                };
+                trial = t;
+            }
             let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
-            if !(again.verified && again.matched >= id.matched) {
+            if !(again.verified && again.matched >= id.matched + usize::from(strict)) {
                 break;
             }
+            let k1_found = id.k1.or((b != 0.0).then_some(trial.k1));
             (cam, *id) = (trial, again);
             id.focal_length_px = Some(cam.focal_length_px);
-            err = scale::focal_scale_error(centroids, &cam, id, vectors);
+            id.k1 = k1_found.map(|_| cam.k1);
+            err = scale::camera_error(centroids, &cam, id, vectors);
         }
-        // What the final matches still show (below the search's threshold) refines the focal
-        // length found: the attitude refitted and the residuals recomputed with it, the matches
-        // kept.
-        if let (Some(_), Some((a, se))) = (id.focal_length_px, err) {
+        // What the final matches still show (below the search's threshold) refines the camera
+        // found: the attitude refitted and the residuals recomputed with it, the matches kept.
+        if let (Some(_), Some(e)) = (id.focal_length_px, err) {
+            let ((a, b), se) = e.refinement(id.k1.is_some());
             cam.focal_length_px *= 1.0 + a;
+            if let Ok(t) = cam.with_k1(cam.k1 + b) {
+                cam = t;
+            }
             self.refit_matches(centroids, &cam, id);
             id.focal_length_px = Some(cam.focal_length_px);
             id.focal_sigma_px = se * cam.focal_length_px;
+            id.k1 = id.k1.map(|_| cam.k1);
         }
         Ok(())
     }
@@ -2029,6 +2047,7 @@ impl Verified {
             focal_length_px: None,
             focal_sigma_px: f64::NAN,
             learned_mag_offset: None,
+            k1: None,
         }
     }
 }
