@@ -109,9 +109,10 @@ pub(crate) fn camera_error(
     let f2 = camera.focal_length_px * camera.focal_length_px;
     // The normal equations of d = a q + b q |q|²/f² + θ J q + t, J q = (−q_y, q_x) (the roll's
     // sign follows the handedness; the shift and roll are nuisance parameters either way), from
-    // the rows (q_x, q_x s, −q_y, 1, 0) and (q_y, q_y s, q_x, 0, 1), s = |q|²/f²; Σ|d|² gives
-    // the residual sum of squares (Σ|d|² − xᵀ Aᵀd at the solution).
-    let mut normal = Matrix5::<f64>::zeros();
+    // the rows (q_x, q_x s, −q_y, 1, 0) and (q_y, q_y s, q_x, 0, 1), s = |q|²/f²: they need only
+    // the sums below; Σ|d|² gives the residual sum of squares (Σ|d|² − xᵀ Aᵀd at the solution).
+    let (mut qq, mut qqs, mut qqss, mut sx, mut sy, mut sxs, mut sys) =
+        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     let mut rhs = Vector5::<f64>::zeros();
     let (mut d_sq, mut rows) = (0.0, 0usize);
     for (c, star) in centroids.iter().zip(&id.catalog_index) {
@@ -128,17 +129,27 @@ pub(crate) fn camera_error(
             x - cx
         };
         let (qy, dx, dy) = (y - cy, c[0] - x, c[1] - y);
-        let s = (qx * qx + qy * qy) / f2;
-        let row_x = Vector5::new(qx, qx * s, -qy, 1.0, 0.0);
-        let row_y = Vector5::new(qy, qy * s, qx, 0.0, 1.0);
-        normal += row_x * row_x.transpose() + row_y * row_y.transpose();
-        rhs += row_x * dx + row_y * dy;
+        let q2 = qx * qx + qy * qy;
+        let s = q2 / f2;
+        (qq, qqs, qqss) = (qq + q2, qqs + q2 * s, qqss + q2 * s * s);
+        (sx, sy, sxs, sys) = (sx + qx, sy + qy, sxs + qx * s, sys + qy * s);
+        let radial = qx * dx + qy * dy;
+        rhs += Vector5::new(radial, radial * s, qx * dy - qy * dx, dx, dy);
         d_sq += dx * dx + dy * dy;
         rows += 1;
     }
     if rows < FOCAL_SCALE_MIN_MATCHES {
         return None;
     }
+    let m = rows as f64;
+    #[rustfmt::skip]
+    let normal = Matrix5::new(
+        qq, qqs, 0.0, sx, sy,
+        qqs, qqss, 0.0, sxs, sys,
+        0.0, 0.0, qq, -sy, sx,
+        sx, sxs, -sy, m, 0.0,
+        sy, sys, sx, 0.0, m,
+    );
     // The scale alone: the radial term's row and column left out.
     let keep = [0usize, 2, 3, 4];
     let n4 = Matrix4::from_fn(|i, j| normal[(keep[i], keep[j])]);
@@ -159,13 +170,14 @@ pub(crate) fn camera_error(
         .flatten()
         .and_then(|chol| {
             let x = chol.solve(&rhs);
-            let inv = chol.inverse();
             let sigma = ((d_sq - x.dot(&rhs)).max(0.0) / (2 * rows - 5) as f64)
                 .sqrt()
                 .max(SIGMA_FLOOR_PX);
+            // (N⁻¹)₀₀ and (N⁻¹)₁₁: the variances per unit noise.
+            let (v0, v1) = (chol.solve(&Vector5::x())[0], chol.solve(&Vector5::y())[1]);
             let fit = [
-                (x[0], sigma * inv[(0, 0)].max(0.0).sqrt()),
-                (x[1], sigma * inv[(1, 1)].max(0.0).sqrt()),
+                (x[0], sigma * v0.max(0.0).sqrt()),
+                (x[1], sigma * v1.max(0.0).sqrt()),
             ];
             fit.iter()
                 .all(|(v, se)| v.is_finite() && se.is_finite())
