@@ -280,3 +280,24 @@ def test_identify_many_takes_images(tmp_path: Path) -> None:
     assert all(r.ok for r in arrays)
     for a, b in zip(res, arrays):
         assert np.array_equal(a.ids, b.ids)  # the same whether read from files or given as arrays
+    for im, r in zip(imgs, arrays):
+        assert np.array_equal(starid.identify(im, fov_deg=12.0).ids, r.ids)  # as one by one
+
+
+def test_a_batch_of_images_learns_their_zero_point() -> None:
+    # 30 false spots per image: from the brightness order alone about half are identified; the
+    # spots' instrument magnitudes share a zero point, which those frames measure for the rest.
+    sims = [starid.simulate_image(fov_deg=10.0, image_size=(1024, 768), seed=s, false_stars=30) for s in range(16)]
+    alone = [starid.identify(im, fov_deg=10.0) for im, _ in sims]
+    batch = starid.identify_many([im for im, _ in sims], fov_deg=10.0)
+    learned = [r.learned_mag_offset for r in batch if r.learned_mag_offset is not None]
+    for (_, truth), a, b in zip(sims, alone, batch):
+        if b.ok:
+            assert np.hypot(b.ra_deg - truth.ra_deg, b.dec_deg - truth.dec_deg) < 0.1
+        if b.learned_mag_offset is None:
+            assert np.array_equal(a.ids, b.ids)
+        else:
+            assert not a.ok and b.ok
+    # Measured: 7 of 16 alone, 14 in the batch (zero point -15.7 mag).
+    assert len(learned) >= 4 and np.ptp(learned) == 0.0
+    assert sum(r.ok for r in batch) == sum(r.ok for r in alone) + len(learned)
