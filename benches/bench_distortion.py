@@ -2,7 +2,8 @@
 
 The focal check (``focal_check``, on by default) fits the solution's pixel residuals by a scale
 and a radial term and searches again with the camera they imply; ``focal_check=False`` holds the
-ideal camera, and "known" gives the solver the true ``k1``. Mag 6, 0.2 px, magnitudes.
+ideal camera, and "known" gives the solver the true ``k1``. Mag 6, 0.2 px, magnitudes. Then the
+field of view unknown too (``fov_range_deg``), against an ideal lens.
 
     python benches/bench_distortion.py [--frames 200]
 """
@@ -49,6 +50,30 @@ def main() -> None:
                     total += int((f.true_ids >= 0).sum())
                 cells.append(f"{100 * right / total:.1f} %, {wrong} wrong, {np.median(times) * 1e3:.2f} ms")
             print(f"| {fov:g}°/{size} px | {k1:+g} | " + " | ".join(cells) + " |", flush=True)
+    # The field of view unknown too (searched in 15-25 deg).
+    print()
+    print("| 20°/1024 px, field of view searched in 15–25° | k1 | stars named | wrong ids | k1 found (median) | field of view error, max |")
+    print("|---|---|---|---|---|---|")
+    for k1 in (0.0, -0.2, 0.2):
+        right = wrong = total = 0
+        found, fov_err = [], []
+        for s in range(args.frames):
+            f = starid.simulate(cat, 20.0, (1024, 1024), seed=s, mag_noise=0.1, mag_limit=6.0, noise_px=0.2, radial_k1=k1)
+            r = starid.identify(f.xy, cat, image_size=(1024, 1024), fov_range_deg=(15.0, 25.0), magnitudes=f.magnitudes)
+            k = r.ids >= 0
+            right += int((r.ids[k] == f.true_ids[k]).sum())
+            wrong += int((r.ids[k] != f.true_ids[k]).sum())
+            total += int((f.true_ids >= 0).sum())
+            if r.ok:
+                fov_err.append(abs(r.fov_deg - 20.0))
+                if r.k1 != 0.0:
+                    found.append(r.k1)
+        med = f" ({np.median(found):+.3f})" if found else ""
+        print(
+            f"| | {k1:+g} | {100 * right / total:.1f} % | {wrong} | {len(found)} of {args.frames}{med} | "
+            f"{max(fov_err):.3f}° |",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

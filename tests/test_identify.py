@@ -304,3 +304,19 @@ def test_an_unknown_radial_distortion_is_found_and_written_to_the_wcs() -> None:
             assert header["CTYPE1"] == "RA---TAN-SIP" and header["A_3_0"] != 0.0
     # 7 of 8 found, 257 -> 285 stars named when this was written.
     assert found >= 5 and named > named_fixed + 15
+
+
+def test_an_unknown_field_of_view_and_distortion_are_found_together() -> None:
+    # The field of view searched in 15-25 deg, the lens's k1 = -0.2 unknown too.
+    found = 0
+    for seed in range(6):
+        f = starid.simulate(fov_deg=20.0, image_size=(1024, 1024), seed=seed, noise_px=0.2, mag_limit=6.0, radial_k1=-0.2)
+        res = starid.identify(f.xy, image_size=(1024, 1024), fov_range_deg=(15.0, 25.0), magnitudes=f.magnitudes)
+        assert res.ok and res.fov_deg == pytest.approx(20.0, abs=0.02)
+        known = res.ids >= 0
+        assert np.array_equal(res.ids[known], f.true_ids[known])
+        if res.k1 != 0.0:
+            found += 1
+            assert res.k1 == pytest.approx(-0.2, abs=0.05) and res.n_matched >= 0.95 * f.n_real
+    # 5 of 6 when this was written.
+    assert found >= 3

@@ -235,7 +235,20 @@ impl Solver {
                             let (done, hyps) = self
                                 .finish(centroids, magnitudes, width_px, height_px, f, &per_call)?;
                             hypotheses_total += hyps;
-                            if let Some((mut id, camera, fit)) = done {
+                            if let Some((mut id, mut camera, fit)) = done {
+                                // The focal check of a known camera, on the camera found: an
+                                // unknown radial distortion leaves a pattern the focal length
+                                // alone cannot fit (see `identify::scale`), even where every
+                                // spot is named (the focal length then absorbs what it can).
+                                if config.focal_check && id.verified {
+                                    self.check_focal(
+                                        centroids, magnitudes, &camera, config, start, &mut id,
+                                    )?;
+                                    if let Some(f) = id.focal_length_px {
+                                        camera.focal_length_px = f;
+                                        camera = camera.with_k1(id.k1.unwrap_or(camera.k1))?;
+                                    }
+                                }
                                 id.hypotheses = hypotheses_total;
                                 id.false_match_probability = (id.false_match_probability
                                     * search.tried.len() as f64)

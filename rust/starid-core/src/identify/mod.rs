@@ -1032,7 +1032,7 @@ impl Solver {
     /// length off, search the frame again with the one they imply, at most
     /// [`scale::FOCAL_RETRIES`] times, keeping a new solution that matches at least as many
     /// centroids. Within the configured timeout only.
-    fn check_focal(
+    pub(crate) fn check_focal(
         &self,
         centroids: &[[f64; 2]],
         magnitudes: Option<&[f64]>,
