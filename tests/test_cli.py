@@ -142,3 +142,15 @@ def test_many_files_learn_their_magnitudes_zero_point(tmp_path: Path, capsys: py
     for r, ids in zip(res, truth):
         named = np.array(r["ids"]) >= 0
         assert np.array_equal(np.array(r["ids"])[named], ids[named])
+
+
+def test_a_lens_distortion_found_is_printed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = starid.simulate(fov_deg=20.0, image_size=(1024, 1024), seed=0, noise_px=0.2, mag_limit=6.0, radial_k1=-0.2)
+    p = tmp_path / "f.csv"
+    p.write_text("x,y,mag\n" + "".join(f"{x:.5f},{y:.5f},{m:.3f}\n" for (x, y), m in zip(f.xy, f.magnitudes)))
+    assert main(["identify", str(p), "--fov-deg", "20", "--size", "1024x1024"]) == 0
+    out = capsys.readouterr().out
+    k1 = float(out.split("lens distortion found: k1 ")[1].split()[0])
+    assert abs(k1 + 0.2) < 0.05
+    assert main(["identify", str(p), "--fov-deg", "20", "--size", "1024x1024", "--fixed-fov"]) == 0
+    assert "lens distortion found" not in capsys.readouterr().out

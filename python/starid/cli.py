@@ -351,6 +351,9 @@ def _identify(args: argparse.Namespace) -> int:
                         if not math.isnan(res.focal_sigma_px)
                         else ""
                     )
+                    + (f"\nlens distortion found: k1 {res.k1:+.4f}" if res.k1 != 0.0 else "")
+                    + (f"\nmagnitude zero point learned from the other frames: {res.learned_mag_offset:+.3f} mag"
+                       if res.learned_mag_offset is not None else "")
                 )
             else:
                 print(f"not identified ({res.status})")
