@@ -1638,14 +1638,21 @@ impl Solver {
         let both = || -> Result<Vec<Identification>> {
             let mut out = run(None, config)?;
             // A zero point the identified frames agree on: the frames nothing identified
-            // without it are searched again, magnitude-gated.
+            // without it are searched again, magnitude-gated (nothing is measured while every
+            // frame with magnitudes is identified).
+            let failed = |i: usize| {
+                matches!(out[i].status, Status::NoMatch | Status::SearchLimit)
+                    && frames[i].1.is_some()
+            };
+            if !config.learn_zero_point || !(0..frames.len()).any(failed) {
+                return Ok(out);
+            }
             let Some((offset, tolerance)) = self.learn_zero_point(frames, &out, config) else {
                 return Ok(out);
             };
             let redo: Vec<usize> = (0..frames.len())
                 .filter(|&i| {
-                    matches!(out[i].status, Status::NoMatch | Status::SearchLimit)
-                        && frames[i].1.is_some()
+                    failed(i)
                         && config
                             .mag_offset
                             .is_none_or(|o| (o - offset).abs() > config.mag_tolerance)
