@@ -56,6 +56,8 @@ FRAME_COLUMNS = {
     "mirrored": "bool",
     "fov_deg": "float64",
     "focal_px": "float64",
+    "k1": "float64",
+    "learned_mag_offset": "float64",
     "n_spots": "int64",
     "n_matched": "int64",
     "false_match_probability": "float64",
@@ -118,7 +120,7 @@ def _frame_table(keys: Any, cols: dict[str, Any], frame_dtype: str) -> pd.DataFr
             "q_x": q[:, 1],
             "q_y": q[:, 2],
             "q_z": q[:, 3],
-            **{k: cols[k] for k in ("mirrored", "fov_deg", "focal_px", "n_spots", "n_matched",
+            **{k: cols[k] for k in ("mirrored", "fov_deg", "focal_px", "k1", "learned_mag_offset", "n_spots", "n_matched",
                                      "false_match_probability", "time_s", "message")},
         }
     )
@@ -252,19 +254,26 @@ def _identify_paths(
     """One partition of image files: read, extract, identify; a file that cannot be read gets
     status ``invalid_input`` with the reason."""
     from ._identify import _invalid
-    from .images import identify_image
 
     # None: each image gets the bundled catalogue its field needs, as identify_image chooses.
     cat = None if cat is None else _worker_catalog(cat, key)
     kw = dict(kwargs)
     fov = kw.pop("fov_deg", None)
-    results: list[Identification] = []
-    for p in paths:
+    results: list[Optional[Identification]] = [None] * len(paths)
+    images, where = [], []
+    for i, p in enumerate(paths):
         try:
-            results.append(identify_image(_read_any(p), cat, fov, extract=extract, **kw).identification)
+            images.append(_read_any(p))
+            where.append(i)
         except (ValueError, OSError, ImportError) as e:
-            results.append(_invalid(f"{p}: {e}", 0))
-    return _frame_table(np.asarray(paths, dtype=object), _starid.result_columns(results, False), "str")
+            results[i] = _invalid(f"{p}: {e}", 0)
+    # The partition's images as one batch: they learn their magnitudes' zero point together.
+    if images:
+        batch = identify_many(images, cat, fov, extract=extract, **kw)
+        for i, r in zip(where, batch):
+            results[i] = r if r.status != "invalid_input" else _invalid(f"{paths[i]}: {r.message}", len(r.ids))
+    done = [r for r in results if r is not None]
+    return _frame_table(np.asarray(paths, dtype=object), _starid.result_columns(done, False), "str")
 
 
 def identify_images(

@@ -649,6 +649,11 @@ pub fn result_columns<'py>(
     )?;
     d.set_item("fov_deg", f(&|r| r.fov_deg).into_pyarray(py))?;
     d.set_item("focal_px", f(&|r| r.focal_px).into_pyarray(py))?;
+    d.set_item("k1", f(&|r| r.k1).into_pyarray(py))?;
+    d.set_item(
+        "learned_mag_offset",
+        f(&|r| r.learned_mag_offset.unwrap_or(f64::NAN)).into_pyarray(py),
+    )?;
     d.set_item(
         "false_match_probability",
         f(&|r| r.false_match_probability).into_pyarray(py),
