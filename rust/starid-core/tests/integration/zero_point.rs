@@ -4,30 +4,42 @@
 //! gates a second search of the rest. Frames whose zero points disagree teach nothing.
 
 use starid_core::simulate::Family;
-use starid_core::{IdentifyConfig, Solver, Status};
+use starid_core::{Camera, FrameRef, IdentifyConfig, SimFrame, Solver, Status};
 
 use super::strategies::bundled;
 
 const ZERO_POINT: f64 = 4.2;
 
+/// `n` K1 scenes, their camera and solver, and their magnitudes with frame `k`'s zero point
+/// `zero(k)`.
+fn scenes(n: u64, zero: impl Fn(usize) -> f64) -> (Solver, Camera, Vec<SimFrame>, Vec<Vec<f64>>) {
+    let catalog = bundled();
+    let camera = Family::K1.camera();
+    let solver = Solver::for_camera(catalog.clone(), &camera).unwrap();
+    let scenes: Vec<_> = (0..n)
+        .map(|s| Family::K1.simulate(&catalog, s).unwrap())
+        .collect();
+    let mags = scenes
+        .iter()
+        .enumerate()
+        .map(|(k, f)| f.magnitudes.iter().map(|m| m + zero(k)).collect())
+        .collect();
+    (solver, camera, scenes, mags)
+}
+
+/// The frames as a batch takes them.
+fn refs<'a>(scenes: &'a [SimFrame], mags: &'a [Vec<f64>]) -> Vec<FrameRef<'a>> {
+    scenes
+        .iter()
+        .zip(mags)
+        .map(|(f, m)| (f.centroids.as_slice(), Some(m.as_slice())))
+        .collect()
+}
+
 #[test]
 fn a_batch_learns_its_zero_point_and_identifies_more_hostile_scenes_with_it() {
-    let catalog = bundled();
-    let family = Family::K1;
-    let camera = family.camera();
-    let solver = Solver::for_camera(catalog.clone(), &camera).unwrap();
-    let scenes: Vec<_> = (0..40u64)
-        .map(|s| family.simulate(&catalog, s).unwrap())
-        .collect();
-    let mags: Vec<Vec<f64>> = scenes
-        .iter()
-        .map(|f| f.magnitudes.iter().map(|m| m + ZERO_POINT).collect())
-        .collect();
-    let refs: Vec<_> = scenes
-        .iter()
-        .zip(&mags)
-        .map(|(f, m)| (f.centroids.as_slice(), Some(m.as_slice())))
-        .collect();
+    let (solver, camera, scenes, mags) = scenes(40, |_| ZERO_POINT);
+    let refs = refs(&scenes, &mags);
     let alone = IdentifyConfig {
         mag_offset: None,
         learn_zero_point: false,
@@ -74,24 +86,9 @@ fn a_batch_learns_its_zero_point_and_identifies_more_hostile_scenes_with_it() {
 
 #[test]
 fn frames_whose_zero_points_disagree_teach_the_batch_nothing() {
-    let catalog = bundled();
-    let family = Family::K1;
-    let camera = family.camera();
-    let solver = Solver::for_camera(catalog.clone(), &camera).unwrap();
-    let scenes: Vec<_> = (0..16u64)
-        .map(|s| family.simulate(&catalog, s).unwrap())
-        .collect();
     // Every frame its own zero point, two magnitudes apart.
-    let mags: Vec<Vec<f64>> = scenes
-        .iter()
-        .enumerate()
-        .map(|(k, f)| f.magnitudes.iter().map(|m| m + 2.0 * k as f64).collect())
-        .collect();
-    let refs: Vec<_> = scenes
-        .iter()
-        .zip(&mags)
-        .map(|(f, m)| (f.centroids.as_slice(), Some(m.as_slice())))
-        .collect();
+    let (solver, camera, scenes, mags) = scenes(16, |k| 2.0 * k as f64);
+    let refs = refs(&scenes, &mags);
     let cfg = IdentifyConfig {
         mag_offset: None,
         ..Default::default()
@@ -106,7 +103,7 @@ fn frames_whose_zero_points_disagree_teach_the_batch_nothing() {
     let measured = ids
         .iter()
         .zip(&mags)
-        .filter(|(id, m)| id.is_identified() && id.zero_point(m, &catalog).is_some())
+        .filter(|(id, m)| id.is_identified() && id.zero_point(m, solver.catalog()).is_some())
         .count();
     assert!(measured >= 3, "{measured} frames measured a zero point");
     for (a, b) in first.iter().zip(&ids) {
