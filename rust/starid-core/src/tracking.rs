@@ -333,7 +333,11 @@ impl Tracker {
         };
         if id.is_identified() {
             id.learned_mag_offset = learned.map(|l| l.0);
-            if let Some(zp) = magnitudes.and_then(|m| id.zero_point(m, solver.catalog())) {
+            // (Measured only for learning: a median per frame on the tracking path.)
+            let measured = magnitudes
+                .filter(|_| self.identify.learn_zero_point)
+                .and_then(|m| id.zero_point(m, solver.catalog()));
+            if let Some(zp) = measured {
                 self.zero_points.push_back(zp);
                 if self.zero_points.len() > ZERO_POINT_HISTORY {
                     self.zero_points.pop_front();

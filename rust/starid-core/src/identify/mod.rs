@@ -527,8 +527,8 @@ pub struct Identification {
     pub learned_mag_offset: Option<f64>,
     /// The radial distortion (`k1`, see [`Camera`]) the solution was found with when the
     /// camera's proved off: the focal check (see [`scale`]) fits it with the focal length from
-    /// ten matches on, and a significant error sends the frame back to the search with both
-    /// corrected (then `focal_length_px` is set too). `None`: the camera's own.
+    /// [`scale::K1_MIN_MATCHES`] matches on, and a significant error sends the frame back to the
+    /// search with both corrected (then `focal_length_px` is set too). `None`: the camera's own.
     pub k1: Option<f64>,
 }
 
@@ -582,11 +582,11 @@ impl Identification {
         if d.len() < ZERO_POINT_MIN_MATCHES {
             return None;
         }
-        let median = median_of(&mut d);
+        let median = verify::median_in_place(&mut d);
         for x in &mut d {
             *x = (*x - median).abs();
         }
-        Some((median, 1.4826 * median_of(&mut d)))
+        Some((median, 1.4826 * verify::median_in_place(&mut d)))
     }
 
     /// The outcome of a search that found nothing for `n` centroids.
@@ -620,17 +620,6 @@ impl Identification {
     }
 }
 
-/// The median of `v` (reordered; not empty): the mean of the two middle values when even.
-fn median_of(v: &mut [f64]) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    let k = v.len() / 2;
-    if v.len() % 2 == 1 {
-        v[k]
-    } else {
-        0.5 * (v[k - 1] + v[k])
-    }
-}
-
 /// The zero point frames agree on, from each one's zero point `z` and spread `s`, and the
 /// magnitude tolerance to search with it: at least [`ZERO_POINT_MIN_FRAMES`] of them, at most a
 /// third more than [`ZERO_POINT_AGREE_MAG`] from the median, which is the answer; the tolerance
@@ -640,7 +629,7 @@ pub(crate) fn agreed_zero_point(z: &[f64], s: &[f64], min_tolerance: f64) -> Opt
     if z.len() < ZERO_POINT_MIN_FRAMES {
         return None;
     }
-    let offset = median_of(&mut z.to_vec());
+    let offset = verify::median_in_place(&mut z.to_vec());
     let mut spread: Vec<f64> = z
         .iter()
         .zip(s)
@@ -653,7 +642,7 @@ pub(crate) fn agreed_zero_point(z: &[f64], s: &[f64], min_tolerance: f64) -> Opt
     {
         return None;
     }
-    let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * median_of(&mut spread)).clamp(
+    let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * verify::median_in_place(&mut spread)).clamp(
         min_tolerance,
         ZERO_POINT_MAX_TOLERANCE_MAG.max(min_tolerance),
     );
@@ -1029,9 +1018,10 @@ impl Solver {
     }
 
     /// The focal check (see [`scale`]): while a verified solution's residuals show the focal
-    /// length off, search the frame again with the one they imply, at most
-    /// [`scale::FOCAL_RETRIES`] times, keeping a new solution that matches at least as many
-    /// centroids. Within the configured timeout only.
+    /// length (or the radial distortion) off, search the frame again with the camera they imply,
+    /// at most [`scale::FOCAL_RETRIES`] times, keeping a new solution that matches at least as
+    /// many centroids (more, for a distortion error short of significance: see
+    /// [`scale::K1_TRY_SIGMAS`]). Within the configured timeout only.
     pub(crate) fn check_focal(
         &self,
         centroids: &[[f64; 2]],
@@ -1064,10 +1054,10 @@ impl Solver {
             if !(again.verified && again.matched >= id.matched + usize::from(strict)) {
                 break;
             }
-            let k1_found = id.k1.or((b != 0.0).then_some(trial.k1));
+            let k1_corrected = id.k1.is_some() || b != 0.0;
             (cam, *id) = (trial, again);
             id.focal_length_px = Some(cam.focal_length_px);
-            id.k1 = k1_found.map(|_| cam.k1);
+            id.k1 = k1_corrected.then_some(cam.k1);
             err = scale::camera_error(centroids, &cam, id, vectors);
         }
         // What the final matches still show (below the search's threshold) refines the camera
@@ -1508,17 +1498,13 @@ impl Solver {
     /// ([`Identification::zero_point`]), at most a third of them lie more than
     /// [`ZERO_POINT_AGREE_MAG`] from the median, which is the answer; the tolerance is
     /// [`ZERO_POINT_TOLERANCE_SIGMAS`] times the agreeing frames' median spread, within the
-    /// configured tolerance and [`ZERO_POINT_MAX_TOLERANCE_MAG`]. `None` when
-    /// [`IdentifyConfig::learn_zero_point`] is off, or nothing agrees.
+    /// configured tolerance and [`ZERO_POINT_MAX_TOLERANCE_MAG`]. `None` when nothing agrees.
     fn learn_zero_point(
         &self,
         frames: &[FrameRef<'_>],
         out: &[Identification],
         config: &IdentifyConfig,
     ) -> Option<(f64, f64)> {
-        if !config.learn_zero_point {
-            return None;
-        }
         let (z, s): (Vec<f64>, Vec<f64>) = frames
             .iter()
             .zip(out)

@@ -802,7 +802,7 @@ pub(super) fn unambiguous_nearest(
 
 /// The median of `v` (reordered) by selection, with no full sort: the upper middle, and for an
 /// even count the mean with the largest of the lower half. `v` must not be empty.
-fn median_in_place(v: &mut [f64]) -> f64 {
+pub(super) fn median_in_place(v: &mut [f64]) -> f64 {
     let k = v.len();
     let upper = *v.select_nth_unstable_by(k / 2, f64::total_cmp).1;
     let lower = if k % 2 == 0 {
