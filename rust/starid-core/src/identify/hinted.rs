@@ -18,7 +18,7 @@ use super::{
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
-use crate::geometry::{angle_between, rotation_angle_between, Camera};
+use crate::geometry::{angle_between, Camera};
 use crate::sky::Radius;
 
 /// Spots (brightest first) whose pairs make tracking hypotheses. A pair costs little here (a
@@ -248,7 +248,7 @@ impl Solver {
         let mags32 = self.mag_f32();
         let f = camera.focal_length_px;
         let k = n.min(HINT_SEARCH_STARS);
-        let top: Vec<usize> = order[..k].to_vec();
+        let top = &order[..k];
         let catalog = &*self.catalog;
         let cat = catalog.vectors();
         let mut found = None;
@@ -265,15 +265,29 @@ impl Solver {
             });
             let reach = hint.uncertainty_rad + 3.0 * sigma_rad;
             let r_confirm = 8.0 * sigma_rad + 2e-7;
+            // An attitude is within `reach + tol` of the hint when the cosine of the rotation
+            // angle between them, (tr(r·hintᵀ) − 1) / 2, is at least that angle's cosine.
+            let cos_allowed = (reach + tol).min(PI).cos();
+            let h = hint.r_icrs_to_cam;
+            let within = |r: &Rotation3<f64>| {
+                let t: f64 = r
+                    .matrix()
+                    .iter()
+                    .zip(h.matrix().iter())
+                    .map(|(a, b)| a * b)
+                    .sum();
+                0.5 * (t - 1.0) >= cos_allowed
+            };
             for &mirrored in handedness {
                 let o = search.obs[usize::from(mirrored)];
                 let reach_r = Radius::new(reach);
                 // Each spot's candidates (the catalogue stars within reach of its predicted place,
-                // nearest first), looked up when a pair first needs them.
-                let mut candidates: Vec<Option<Vec<u32>>> = vec![None; k];
-                let lookup = |s: usize| -> Vec<u32> {
-                    let w = hint.r_icrs_to_cam.inverse_transform_vector(&o[s]);
-                    let mut c: Vec<(f64, u32)> = Vec::new();
+                // nearest first), looked up when a pair first needs them: `cand[ranges[s]]`.
+                let (mut cand, mut near): (Vec<u32>, Vec<(f64, u32)>) = (Vec::new(), Vec::new());
+                let mut ranges: Vec<Option<(u32, u32)>> = vec![None; k];
+                let mut lookup = |s: usize, cand: &mut Vec<u32>| -> (u32, u32) {
+                    let w = h.inverse_transform_vector(&o[s]);
+                    near.clear();
                     let allowed = |star: u32| {
                         windows
                             .as_deref()
@@ -281,15 +295,19 @@ impl Solver {
                     };
                     catalog.for_each_near(&w, reach_r, |star, cos, _| {
                         if allowed(star) {
-                            c.push((-cos, star));
+                            near.push((-cos, star));
                         }
                     });
-                    if c.len() > HINT_MAX_CANDIDATES {
-                        c.select_nth_unstable_by(HINT_MAX_CANDIDATES, |a, b| a.0.total_cmp(&b.0));
-                        c.truncate(HINT_MAX_CANDIDATES);
+                    if near.len() > HINT_MAX_CANDIDATES {
+                        near.select_nth_unstable_by(HINT_MAX_CANDIDATES, |a, b| {
+                            a.0.total_cmp(&b.0)
+                        });
+                        near.truncate(HINT_MAX_CANDIDATES);
                     }
-                    c.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-                    c.into_iter().map(|(_, s)| s).collect()
+                    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                    let start = cand.len() as u32;
+                    cand.extend(near.iter().map(|&(_, s)| s));
+                    (start, cand.len() as u32)
                 };
                 search.pairs_visited += k;
                 // Pairs of spots, brightest first: by the sum of their brightness ranks.
@@ -306,14 +324,15 @@ impl Solver {
                     let (cos_lo, cos_hi) =
                         ((theta + tol).min(PI).cos(), (theta - tol).max(0.0).cos());
                     for idx in [i, j] {
-                        if candidates[idx].is_none() {
-                            candidates[idx] = Some(lookup(top[idx]));
+                        if ranges[idx].is_none() {
+                            ranges[idx] = Some(lookup(top[idx], &mut cand));
                         }
                     }
-                    let (ci, cj) = (
-                        candidates[i].as_deref().unwrap_or_default(),
-                        candidates[j].as_deref().unwrap_or_default(),
-                    );
+                    let span = |idx: usize| {
+                        let (a, b) = ranges[idx].unwrap_or_default();
+                        a as usize..b as usize
+                    };
+                    let (ci, cj) = (&cand[span(i)], &cand[span(j)]);
                     if ci.is_empty() || cj.is_empty() {
                         continue;
                     }
@@ -333,14 +352,13 @@ impl Solver {
                             let Some(r) = triad(&a_obs, &b_obs, &va, &vb) else {
                                 continue;
                             };
-                            if rotation_angle_between(&r, &hint.r_icrs_to_cam) > reach + tol {
+                            if !within(&r) {
                                 continue;
                             }
                             let v = search.verify(r, mirrored, r_confirm, sigma_rad);
                             if let Some(v) = search.accept(v) {
                                 // The verified attitude must still be one the hint allows.
-                                if rotation_angle_between(&v.r, &hint.r_icrs_to_cam) <= reach + tol
-                                {
+                                if within(&v.r) {
                                     found = Some(v);
                                     found_step = step;
                                     break 'passes;

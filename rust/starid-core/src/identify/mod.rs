@@ -1692,10 +1692,33 @@ pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usiz
         let b = x.to_bits() as i64;
         b ^ ((((b >> 63) as u64) >> 1) as i64)
     };
+    let n = m.len();
+    if n <= BRIGHTNESS_INSERTION_MAX {
+        // A frame of a few dozen spots: an insertion sort of the indices by key (stable, so
+        // ties keep their index order), with no allocation but the answer's.
+        let mut keys = [0i64; BRIGHTNESS_INSERTION_MAX];
+        for (k, &x) in keys.iter_mut().zip(m) {
+            *k = key(x);
+        }
+        let mut idx = [0u8; BRIGHTNESS_INSERTION_MAX];
+        for i in 0..n {
+            let k = keys[i];
+            let mut j = i;
+            while j > 0 && keys[usize::from(idx[j - 1])] > k {
+                idx[j] = idx[j - 1];
+                j -= 1;
+            }
+            idx[j] = i as u8;
+        }
+        return idx[..n].iter().map(|&i| usize::from(i)).collect();
+    }
     let mut keyed: Vec<(i64, usize)> = m.iter().enumerate().map(|(i, &x)| (key(x), i)).collect();
     keyed.sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
 }
+
+/// Most centroids [`brightness_order`] sorts by insertion.
+const BRIGHTNESS_INSERTION_MAX: usize = 32;
 
 pub(crate) fn validate_centroids(
     centroids: &[[f64; 2]],

@@ -257,21 +257,21 @@ impl Search<'_> {
         // Only with magnitudes, and only where each centroid's magnitude agrees with its star's
         // both ways after the frame's offset (the median over the unique matches): a false spot
         // beside a star with a faint companion must not be handed the companion.
-        let offset = match (self.magnitudes, s.ambiguous.is_empty()) {
-            (Some(m), false) => {
-                let mut d: Vec<f64> = s
-                    .matches
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(o, x)| x.map(|(star, _)| m[o] - f64::from(mags[star as usize])))
-                    .collect();
-                (d.len() >= 3).then(|| {
-                    d.sort_unstable_by(f64::total_cmp);
-                    d[d.len() / 2]
-                })
-            }
-            _ => None,
-        };
+        let offset =
+            match (self.magnitudes, s.ambiguous.is_empty()) {
+                (Some(m), false) => {
+                    let d = &mut s.mag_offsets;
+                    d.clear();
+                    d.extend(s.matches.iter().enumerate().filter_map(|(o, x)| {
+                        x.map(|(star, _)| m[o] - f64::from(mags[star as usize]))
+                    }));
+                    (d.len() >= 3).then(|| {
+                        let k = d.len() / 2;
+                        *d.select_nth_unstable_by(k, f64::total_cmp).1
+                    })
+                }
+                _ => None,
+            };
         let tol = self.config.mag_tolerance;
         if let (Some(off), Some(m)) = (offset, self.magnitudes) {
             let fits = |o: u32, star: u32| {
@@ -694,24 +694,29 @@ impl NearCache {
     /// square roots are taken only for the match kept: see [`nearest_match`]).
     #[inline]
     fn nearest_two(&self, o: usize, radius: Radius) -> (Option<Near>, Option<Near>) {
-        let w = &self.w[o];
         let (a, b) = (self.start[o] as usize, self.start[o + 1] as usize);
-        let mut best: Option<(u32, f64, usize)> = None;
-        let mut second: Option<(u32, f64, usize)> = None;
-        for (k, (star, v)) in self.stars[a..b].iter().enumerate() {
+        let held = &self.stars[a..b];
+        let w = &self.w[o];
+        // Cosines (larger is nearer) and positions in `held`; none yet is usize::MAX.
+        let floor = radius.cos();
+        let (mut best, mut second) = (
+            (usize::MAX, f64::NEG_INFINITY),
+            (usize::MAX, f64::NEG_INFINITY),
+        );
+        for (k, (_, v)) in held.iter().enumerate() {
             let c = v.dot(w);
-            if c < radius.cos() {
+            if c < floor {
                 continue;
             }
-            if best.is_none_or(|x| c > x.1) {
+            if c > best.1 {
                 second = best;
-                best = Some((*star, c, a + k));
-            } else if second.is_none_or(|x| c > x.1) {
-                second = Some((*star, c, a + k));
+                best = (k, c);
+            } else if c > second.1 {
+                second = (k, c);
             }
         }
-        let near = |h: Option<(u32, f64, usize)>| {
-            h.map(|(s, _, k)| (s, w.cross(&self.stars[k].1).norm_squared()))
+        let near = |(k, _): (usize, f64)| {
+            (k != usize::MAX).then(|| (held[k].0, w.cross(&held[k].1).norm_squared()))
         };
         (near(best), near(second))
     }
