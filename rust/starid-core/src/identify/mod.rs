@@ -1677,10 +1677,6 @@ impl Solver {
     }
 }
 
-/// Frames of at most this many centroids are checked for duplicates pair by pair (cheaper than a
-/// sort at this size).
-const DUPLICATE_PAIRWISE_MAX: usize = 24;
-
 /// The centroids brightest first (by magnitude, ties by index), or as given without magnitudes.
 pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usize> {
     let Some(m) = magnitudes else {
@@ -1748,23 +1744,32 @@ pub(crate) fn validate_centroids(
             )));
         }
     }
-    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; compared
-    // pair by pair for small frames, else sorted as integers (on the stack up to 64 centroids).
+    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; up to 64
+    // centroids screened by a hash table on the stack, more sorted as integers.
     let key = |c: &[f64; 2]| ((c[0] + 0.0).to_bits(), (c[1] + 0.0).to_bits());
     let has_duplicate = |keys: &mut [(u64, u64)]| {
         keys.sort_unstable();
         keys.windows(2).any(|w| w[0] == w[1])
     };
     let duplicate = if n <= 64 {
+        // Each key sets one bit of a 1024-bit table by its hash; only a key whose bit is already
+        // set is compared with the keys before it (a 64-spot frame collides about twice).
         let mut keys = [(0u64, 0u64); 64];
-        for (k, c) in keys.iter_mut().zip(centroids) {
-            *k = key(c);
+        let mut seen = [0u64; 16];
+        let mut dup = false;
+        for (j, c) in centroids.iter().enumerate() {
+            let k = key(c);
+            keys[j] = k;
+            let h =
+                ((k.0 ^ k.1.rotate_left(29)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 54) as usize;
+            let (word, bit) = (h >> 6, 1u64 << (h & 63));
+            if seen[word] & bit != 0 && keys[..j].contains(&k) {
+                dup = true;
+                break;
+            }
+            seen[word] |= bit;
         }
-        if n <= DUPLICATE_PAIRWISE_MAX {
-            (1..n).any(|j| keys[..j].contains(&keys[j]))
-        } else {
-            has_duplicate(&mut keys[..n])
-        }
+        dup
     } else {
         has_duplicate(&mut centroids.iter().map(key).collect::<Vec<_>>())
     };
@@ -1837,7 +1842,7 @@ struct SortedMags {
 }
 
 /// Bins of [`SortedMags`].
-const MAG_COUNT_BINS: usize = 1024;
+const MAG_COUNT_BINS: usize = 8192;
 
 impl SortedMags {
     fn new(mags: &[f32]) -> Self {
@@ -2071,6 +2076,41 @@ impl Verified {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn duplicates_are_found_as_by_comparing_every_pair() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let cam = Camera::from_fov(0.2, 1000.0, 1000.0).unwrap();
+        for trial in 0..3000 {
+            let n = rng.random_range(0..80usize);
+            // Integer pixels (few mantissa bits), signed zeros, or random coordinates.
+            let mut c: Vec<[f64; 2]> = (0..n)
+                .map(|_| match trial % 3 {
+                    0 => [
+                        f64::from(rng.random_range(0..40u8)),
+                        f64::from(rng.random_range(0..3u8)),
+                    ],
+                    1 => [
+                        if rng.random::<bool>() { 0.0 } else { -0.0 },
+                        rng.random_range(0..200u8).into(),
+                    ],
+                    _ => [rng.random_range(0.0..1000.0), rng.random_range(0.0..1000.0)],
+                })
+                .collect();
+            if n > 1 && trial % 2 == 0 {
+                let (a, b) = (rng.random_range(0..n), rng.random_range(0..n));
+                c[b] = c[a];
+            }
+            let same = |p: &[f64; 2], q: &[f64; 2]| p[0] == q[0] && p[1] == q[1];
+            let want = (0..n).any(|j| (0..j).any(|i| same(&c[i], &c[j])));
+            let got = validate_centroids(&c, None, &cam);
+            assert_eq!(got.is_err(), want, "trial {trial}: {got:?}");
+            if want {
+                assert!(got.unwrap_err().to_string().contains("duplicates"));
+            }
+        }
+    }
 
     #[test]
     fn brightness_order_is_the_stable_order_by_magnitude() {
