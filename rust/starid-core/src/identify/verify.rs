@@ -697,6 +697,15 @@ impl NearCache {
         let (a, b) = (self.start[o] as usize, self.start[o + 1] as usize);
         let held = &self.stars[a..b];
         let w = &self.w[o];
+        // Most centroids hold one star or none (the cache radius is a few pixels).
+        match held {
+            [] => return (None, None),
+            [(star, v)] => {
+                let near = v.dot(w) >= radius.cos();
+                return (near.then(|| (*star, w.cross(v).norm_squared())), None);
+            }
+            _ => {}
+        }
         // Cosines (larger is nearer) and positions in `held`; none yet is usize::MAX.
         let floor = radius.cos();
         let (mut best, mut second) = (
