@@ -814,10 +814,29 @@ pub(super) fn unambiguous_nearest(
     Some((star, d1))
 }
 
-/// The median of `v` (reordered) by selection, with no full sort: the upper middle, and for an
-/// even count the mean with the largest of the lower half. `v` must not be empty.
+/// The median of `v` (reordered): the middle value, for an even count the mean of the two middle
+/// ones; by insertion sort up to [`MEDIAN_INSERTION_MAX`] values, else by selection with no full
+/// sort. `v` must not be empty.
 pub(super) fn median_in_place(v: &mut [f64]) -> f64 {
     let k = v.len();
+    if k <= MEDIAN_INSERTION_MAX {
+        // A few dozen values (the matches of a frame): sorted by insertion, cheaper than a
+        // selection at this size; the same two middle values either way.
+        for i in 1..k {
+            let x = v[i];
+            let mut j = i;
+            while j > 0 && v[j - 1] > x {
+                v[j] = v[j - 1];
+                j -= 1;
+            }
+            v[j] = x;
+        }
+        return if k % 2 == 0 {
+            0.5 * (v[k / 2 - 1] + v[k / 2])
+        } else {
+            v[k / 2]
+        };
+    }
     let upper = *v.select_nth_unstable_by(k / 2, f64::total_cmp).1;
     let lower = if k % 2 == 0 {
         v[..k / 2].iter().copied().fold(f64::NEG_INFINITY, f64::max)
@@ -826,6 +845,9 @@ pub(super) fn median_in_place(v: &mut [f64]) -> f64 {
     };
     0.5 * (lower + upper)
 }
+
+/// Most values [`median_in_place`] sorts by insertion.
+const MEDIAN_INSERTION_MAX: usize = 32;
 
 /// Largest `n` whose `ln n!` is tabled for [`ln_choose`].
 const LN_FACTORIAL_TABLE: usize = 4096;
