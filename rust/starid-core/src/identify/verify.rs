@@ -903,3 +903,35 @@ pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
     }
     sum.min(1.0)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_is_the_middle_of_the_sorted_values_at_every_size() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        // Both sides of MEDIAN_INSERTION_MAX, with ties and signed zeros.
+        for k in 1..=80usize {
+            for _ in 0..20 {
+                let v: Vec<f64> = (0..k)
+                    .map(|i| match i % 5 {
+                        0 => 0.0,
+                        1 => -0.0,
+                        _ => (rng.random_range(-4.0..4.0f64) * 8.0).round() / 8.0,
+                    })
+                    .collect();
+                let mut sorted = v.clone();
+                sorted.sort_by(f64::total_cmp);
+                let want = if k % 2 == 0 {
+                    0.5 * (sorted[k / 2 - 1] + sorted[k / 2])
+                } else {
+                    sorted[k / 2]
+                };
+                let got = median_in_place(&mut v.clone());
+                assert_eq!(got, want, "k = {k}: {v:?}");
+            }
+        }
+    }
+}
