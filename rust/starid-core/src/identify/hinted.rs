@@ -88,10 +88,19 @@ impl AttitudeHint {
     fn check(&self) -> Result<()> {
         let u = self.uncertainty_rad;
         if !(u.is_finite() && u > 0.0 && u <= MAX_HINT_UNCERTAINTY_RAD) {
+            // Degrees to 12 significant digits: the radians' round trip shows 30 as 29.999…
+            let deg = |r: f64| {
+                format!(
+                    "{}",
+                    format!("{:.12e}", r.to_degrees())
+                        .parse::<f64>()
+                        .unwrap_or(f64::NAN)
+                )
+            };
             return Err(Error::invalid_input(format!(
                 "hint_uncertainty_deg must be in (0, {}] degrees, got {}",
-                MAX_HINT_UNCERTAINTY_RAD.to_degrees(),
-                u.to_degrees()
+                deg(MAX_HINT_UNCERTAINTY_RAD),
+                deg(u)
             )));
         }
         let m = self.r_icrs_to_cam.matrix();
