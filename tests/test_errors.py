@@ -55,6 +55,17 @@ def test_bad_image_size(size: object) -> None:
         ident(GOOD, image_size=size)
 
 
+@pytest.mark.parametrize(
+    "setting", [("allow_mirrored", "yes"), ("learn_zero_point", "no"), ("centroid_sigma_px", "x"), ("method", 3)]
+)
+def test_a_setting_of_the_wrong_type_is_named(setting: tuple[str, object]) -> None:
+    name, value = setting
+    with pytest.raises(TypeError, match=f"^{name}: "):
+        ident(GOOD, **{name: value})
+    with pytest.raises(TypeError, match=f"^{name}: "):
+        starid.identify_many([GOOD], fov_deg=12.0, image_size=(512, 512), **{name: value})
+
+
 def test_bad_options() -> None:
     with pytest.raises(ValueError, match="magnitudes"):
         ident(GOOD, magnitudes=[1.0, 2.0])

@@ -206,13 +206,28 @@ def _config(config: Any, settings: dict[str, Any]) -> Any:
     try:
         cfg = IdentifyConfig(**settings)
     except TypeError as e:
-        raise TypeError(f"{e}; the settings are {', '.join(IdentifyConfig.names())}") from None
+        raise TypeError(f"{_culprit(settings)}{e}; the settings are {', '.join(IdentifyConfig.names())}") from None
     if len(_CONFIGS) < 256:
         try:
             _CONFIGS[key] = cfg
         except TypeError:
             pass
     return cfg
+
+
+def _culprit(settings: dict[str, Any]) -> str:
+    """``"name: "`` of the first known setting whose value alone the settings refuse as of the
+    wrong type (the native message does not name it), else ``""``."""
+    names = set(IdentifyConfig.names())
+    for name, value in settings.items():
+        if name in names:
+            try:
+                IdentifyConfig(**{name: value})
+            except TypeError:
+                return f"{name}: "
+            except Exception:
+                pass
+    return ""
 
 
 def _camera(camera: Any, fov_deg: Any, image_size: Any) -> Any:
