@@ -295,25 +295,10 @@ impl Tracker {
             ..given
         };
         // The zero point the last solutions agree on, where the configuration has none that fits.
-        let learned = self.learned_zero_point().filter(|&(z, _)| {
-            magnitudes.is_some()
-                && self
-                    .identify
-                    .mag_offset
-                    .is_none_or(|o| (o - z).abs() > self.identify.mag_tolerance)
-        });
-        let with_zero_point;
-        let config = match learned {
-            Some((z, tolerance)) => {
-                with_zero_point = IdentifyConfig {
-                    mag_offset: Some(z),
-                    mag_tolerance: tolerance,
-                    ..self.identify.clone()
-                };
-                &with_zero_point
-            }
-            None => &self.identify,
-        };
+        let learned = magnitudes
+            .and(self.learned_zero_point())
+            .and_then(|zp| self.identify.with_learned_zero_point(zp));
+        let config = learned.as_ref().unwrap_or(&self.identify);
         let prediction = self.predict(t_s);
         let fallback = if self.config.fallback {
             HintFallback::LostInSpace
@@ -332,7 +317,7 @@ impl Tracker {
             _ => solver.identify(centroids, magnitudes, camera, config)?,
         };
         if id.is_identified() {
-            id.learned_mag_offset = learned.map(|l| l.0);
+            id.learned_mag_offset = learned.as_ref().and_then(|c| c.mag_offset);
             // (Measured only for learning: a median per frame on the tracking path.)
             let measured = magnitudes
                 .filter(|_| self.identify.learn_zero_point)

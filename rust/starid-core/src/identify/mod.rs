@@ -378,6 +378,19 @@ impl Default for IdentifyConfig {
 }
 
 impl IdentifyConfig {
+    /// This configuration searching with a learned zero point `(offset, tolerance)` (see
+    /// [`agreed_zero_point`]), or `None` where the configured `mag_offset` already agrees with
+    /// it (within `mag_tolerance`): the one rule of a batch and a tracker.
+    pub(crate) fn with_learned_zero_point(&self, (offset, tolerance): (f64, f64)) -> Option<Self> {
+        self.mag_offset
+            .is_none_or(|o| (o - offset).abs() > self.mag_tolerance)
+            .then(|| Self {
+                mag_offset: Some(offset),
+                mag_tolerance: tolerance,
+                ..self.clone()
+            })
+    }
+
     /// Check every setting.
     ///
     /// # Errors
@@ -1633,25 +1646,14 @@ impl Solver {
             if !config.learn_zero_point || !(0..frames.len()).any(failed) {
                 return Ok(out);
             }
-            let Some((offset, tolerance)) = self.learn_zero_point(frames, &out, config) else {
+            let Some(learned) = self
+                .learn_zero_point(frames, &out, config)
+                .and_then(|zp| config.with_learned_zero_point(zp))
+            else {
                 return Ok(out);
             };
-            let redo: Vec<usize> = (0..frames.len())
-                .filter(|&i| {
-                    failed(i)
-                        && config
-                            .mag_offset
-                            .is_none_or(|o| (o - offset).abs() > config.mag_tolerance)
-                })
-                .collect();
-            if redo.is_empty() {
-                return Ok(out);
-            }
-            let learned = IdentifyConfig {
-                mag_offset: Some(offset),
-                mag_tolerance: tolerance,
-                ..config.clone()
-            };
+            let offset = learned.mag_offset.unwrap_or_default();
+            let redo: Vec<usize> = (0..frames.len()).filter(|&i| failed(i)).collect();
             for (i, mut id) in redo.iter().zip(run(Some(&redo), &learned)?) {
                 id.elapsed += out[*i].elapsed;
                 id.hypotheses += out[*i].hypotheses;
