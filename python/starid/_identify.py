@@ -605,12 +605,16 @@ def _image_batch(
         kwargs.pop("image_size")
     cat = None if catalog is None else resolve_catalog(catalog)
 
+    def named(i: int, message: Any) -> str:
+        """``message`` naming image ``i`` (its path, or its place in the batch)."""
+        name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
+        return str(message) if str(name) in str(message) else f"{name}: {message}"
+
     def one(i: int) -> Identification:
         try:
             return identify_image(images[i], cat, fov_deg, **kwargs).identification
         except (ValueError, OSError, ImportError) as e:
-            name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
-            return _invalid(str(e) if str(name) in str(e) else f"{name}: {e}", 0)
+            return _invalid(named(i, e), 0)
 
     workers = (os.cpu_count() or 1) if threads is None else int(threads)
     known_camera = kwargs.get("camera") is not None or fov_deg is not None
@@ -635,8 +639,7 @@ def _image_batch(
                 raise InvalidInputError(f"image_size {size} differs from the image's {c.image_size}")
             return c
         except (ValueError, OSError, ImportError) as e:
-            name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
-            return str(e) if str(name) in str(e) else f"{name}: {e}"
+            return named(i, e)
 
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         found = list(pool.map(spots, range(len(images))))
@@ -656,8 +659,7 @@ def _image_batch(
         )
         for i, r in zip(idx, batch):
             if r.status == "invalid_input":
-                name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
-                r = _invalid(f"{name}: {r.message}", len(r.ids))
+                r = _invalid(named(i, r.message), len(r.ids))
             results[i] = r
     return cast(list[Identification], results)
 
