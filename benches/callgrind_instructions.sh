@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Instructions per frame (callgrind; deterministic, unlike wall time on a shared machine) of
+# Instructions per frame (callgrind; unlike wall time on a shared machine, nearly deterministic) of
 #   - hinted identification: examples/tracking part 1 (1000 frames, 12°/512 px, hint ≤ 1° off),
-#   - lost in space, S1 with magnitudes: examples/scenarios, 1000 less 500 frames,
-#   - lost in space, S1 order only: the same with STARID_ORDER_ONLY=1.
+#   - lost in space, S1 with magnitudes: examples/scenarios, frames 500 to 1500,
+#   - lost in space, S1 order only: the same with STARID_ORDER_ONLY=1,
+#   - lost in space, S1 and S2 with realistic magnitudes (0.3 mag more scatter, an unknown zero
+#     point: STARID_REALISTIC=1).
 # Needs valgrind. Usage: bash benches/callgrind_instructions.sh   (about 2 minutes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,11 +16,21 @@ refs() { valgrind --tool=callgrind --callgrind-out-file="$out/cg.out" --toggle-c
     | awk '/refs/ {gsub(",", "", $4); print $4}'; }
 lis='starid_core::identify::Solver::identify'
 h=$(STARID_PART1_ONLY=1 refs '*Solver>::identify_hinted' $bin/tracking 1000 0)
-m1=$(refs "$lis" $bin/scenarios 1000 1 "12deg/512px mag6 0.2px")
-m0=$(refs "$lis" $bin/scenarios 500 1 "12deg/512px mag6 0.2px")
-o1=$(STARID_ORDER_ONLY=1 refs "$lis" $bin/scenarios 1000 1 "12deg/512px mag6 0.2px")
-o0=$(STARID_ORDER_ONLY=1 refs "$lis" $bin/scenarios 500 1 "12deg/512px mag6 0.2px")
+# Instructions per frame of scenario $1 with the environment settings that follow: 1500 frames
+# less 500, so that what is paid once (the magnitude-split index, built by the first frame that
+# needs it) cancels out. Its heap layout varies from run to run: about ±0.3k per frame.
+per_frame() {
+    local sc=$1 a b
+    shift
+    a=$([ $# -eq 0 ] || export "$@"; refs "$lis" $bin/scenarios 1500 1 "$sc")
+    b=$([ $# -eq 0 ] || export "$@"; refs "$lis" $bin/scenarios 500 1 "$sc")
+    echo $(((a - b) / 1000))
+}
+s1="12deg/512px mag6 0.2px"
+s2="20deg/1024px mag6 0.2px"
 echo "hinted (1° hint, 12°/512 px): $((h / 1000)) instructions per frame"
-echo "lost in space S1, magnitudes: $(((m1 - m0) / 500)) instructions per frame"
-echo "lost in space S1, order only: $(((o1 - o0) / 500)) instructions per frame"
+echo "lost in space S1, magnitudes: $(per_frame "$s1") instructions per frame"
+echo "lost in space S1, order only: $(per_frame "$s1" STARID_ORDER_ONLY=1) instructions per frame"
+echo "lost in space S1, realistic magnitudes: $(per_frame "$s1" STARID_REALISTIC=1) instructions per frame"
+echo "lost in space S2, realistic magnitudes: $(per_frame "$s2" STARID_REALISTIC=1) instructions per frame"
 rm -rf "$out"

@@ -9,12 +9,15 @@
 //! Environment: `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
 //! the hopeless ones); `STARID_HYP` prints hypothesis counts; `STARID_FAILS` lists failures and
 //! wrong ids; `STARID_SEED=N` runs one frame; `STARID_ORDER_ONLY` gives the centroids brightest
-//! first without their magnitudes (what tetra3-style solvers take).
+//! first without their magnitudes (what tetra3-style solvers take); `STARID_REALISTIC` gives
+//! magnitudes with 0.3 mag more scatter and a zero point drawn from ±8 mag, searched with
+//! `mag_offset: None` (the peer benchmark's realistic input).
 #![allow(clippy::print_stdout)]
 
 use std::sync::Arc;
 
 use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
 use starid_core::{simulate, Camera, Catalog, IdentifyConfig, SimConfig, Solver};
 
 struct Scenario {
@@ -101,6 +104,10 @@ fn main() {
         .expect("camera");
         let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
         let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
+        let realistic = std::env::var("STARID_REALISTIC").is_ok();
+        if realistic {
+            config.mag_offset = None;
+        }
         let sims: Vec<_> = (0..frames)
             .map(|seed| {
                 let mut f = simulate(&catalog, &camera, &sc.sim, seed).expect("frame");
@@ -111,6 +118,14 @@ fn main() {
                     f.centroids = idx.iter().map(|&i| f.centroids[i]).collect();
                     f.catalog_index = idx.iter().map(|&i| f.catalog_index[i]).collect();
                     f.magnitudes = idx.iter().map(|&i| f.magnitudes[i]).collect();
+                }
+                if realistic {
+                    let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5eed);
+                    let scatter = rand_distr::Normal::new(0.0, 0.3).expect("normal");
+                    let zero_point = rng.random_range(-8.0..8.0);
+                    for m in &mut f.magnitudes {
+                        *m += zero_point + rng.sample(scatter);
+                    }
                 }
                 f
             })

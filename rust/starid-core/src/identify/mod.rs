@@ -1715,8 +1715,11 @@ pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usiz
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
+/// Most centroids whose duplicates [`validate_centroids`] screens by hashing (more: by sorting).
+const DUPLICATE_HASH_MAX: usize = 256;
+
 /// Most centroids [`brightness_order`] sorts by insertion.
-const BRIGHTNESS_INSERTION_MAX: usize = 32;
+const BRIGHTNESS_INSERTION_MAX: usize = 64;
 
 pub(crate) fn validate_centroids(
     centroids: &[[f64; 2]],
@@ -1746,26 +1749,20 @@ pub(crate) fn validate_centroids(
             )));
         }
     }
-    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; up to 64
-    // centroids screened by a hash table on the stack, more sorted as integers.
+    // Duplicates: equal coordinates (−0 equals 0, hence `+ 0.0`) are equal bit patterns; up to
+    // DUPLICATE_HASH_MAX centroids screened by a hash table on the stack, more sorted as integers.
     let key = |c: &[f64; 2]| ((c[0] + 0.0).to_bits(), (c[1] + 0.0).to_bits());
-    let has_duplicate = |keys: &mut [(u64, u64)]| {
-        keys.sort_unstable();
-        keys.windows(2).any(|w| w[0] == w[1])
-    };
-    let duplicate = if n <= 64 {
-        // Each key sets one bit of a 1024-bit table by its hash; only a key whose bit is already
-        // set is compared with the keys before it (a 64-spot frame collides about twice).
-        let mut keys = [(0u64, 0u64); 64];
-        let mut seen = [0u64; 16];
+    let duplicate = if n <= DUPLICATE_HASH_MAX {
+        // Each key sets one bit of a 4096-bit table by its hash; only a key whose bit is already
+        // set is compared with the centroids before it (a 256-spot frame collides about 8 times).
+        let mut seen = [0u64; 64];
         let mut dup = false;
         for (j, c) in centroids.iter().enumerate() {
             let k = key(c);
-            keys[j] = k;
             let h =
-                ((k.0 ^ k.1.rotate_left(29)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 54) as usize;
+                ((k.0 ^ k.1.rotate_left(29)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 52) as usize;
             let (word, bit) = (h >> 6, 1u64 << (h & 63));
-            if seen[word] & bit != 0 && keys[..j].contains(&k) {
+            if seen[word] & bit != 0 && centroids[..j].iter().any(|c| key(c) == k) {
                 dup = true;
                 break;
             }
@@ -1773,7 +1770,9 @@ pub(crate) fn validate_centroids(
         }
         dup
     } else {
-        has_duplicate(&mut centroids.iter().map(key).collect::<Vec<_>>())
+        let mut keys: Vec<(u64, u64)> = centroids.iter().map(key).collect();
+        keys.sort_unstable();
+        keys.windows(2).any(|w| w[0] == w[1])
     };
     // Name the pair (rare: only for the error).
     let mut sorted: Vec<usize> = if duplicate {
@@ -2085,7 +2084,8 @@ mod tests {
         let mut rng = rand::rngs::StdRng::seed_from_u64(3);
         let cam = Camera::from_fov(0.2, 1000.0, 1000.0).unwrap();
         for trial in 0..3000 {
-            let n = rng.random_range(0..80usize);
+            // Both sides of DUPLICATE_HASH_MAX now and then.
+            let n = rng.random_range(0..if trial % 8 == 7 { 320 } else { 80usize });
             // Integer pixels (few mantissa bits), signed zeros, or random coordinates.
             let mut c: Vec<[f64; 2]> = (0..n)
                 .map(|_| match trial % 3 {

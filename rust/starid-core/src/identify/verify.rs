@@ -279,15 +279,24 @@ impl Search<'_> {
             };
             let cat = catalog.vectors();
             let decisive = 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad;
-            s.claim.sort_unstable_by_key(|c| c.0);
+            // A few torn centroids (the usual frame) look their owners up in the claims as they
+            // stand; many, in the claims sorted by star.
+            let sorted = s.ambiguous.len() > OWNER_SCAN_MAX_AMBIGUOUS;
+            if sorted {
+                s.claim.sort_unstable_by_key(|c| c.0);
+            }
             let mut resolved: Vec<(u32, u32, f64, u32, u32, f64)> = Vec::new();
             for &(ob, cands) in &s.ambiguous {
                 let [(s1, _), (s2, _)] = cands;
                 let owner = |star: u32| {
-                    s.claim
-                        .binary_search_by_key(&star, |c| c.0)
-                        .ok()
-                        .map(|i| s.claim[i].1)
+                    if sorted {
+                        s.claim
+                            .binary_search_by_key(&star, |c| c.0)
+                            .ok()
+                            .map(|i| s.claim[i].1)
+                    } else {
+                        s.claim.iter().find(|c| c.0 == star).map(|c| c.1)
+                    }
                 };
                 let pair = (s1.min(s2), s1.max(s2));
                 let oa =
@@ -400,6 +409,14 @@ impl Search<'_> {
                 (lo.min(d), hi.max(d))
             });
         if hi - lo <= MAG_BRIGHTER_LIMIT {
+            return 0;
+        }
+        // Nor where the median is within MAG_BRIGHTER_LIMIT of the smallest offset: then no
+        // offset lies that far below it. Fewer than half the offsets above lo + 0.999 say so
+        // without a median (the margin far exceeds any rounding of the comparison below).
+        let k = n - n / 2;
+        let above = lo + (MAG_BRIGHTER_LIMIT - 1e-3);
+        if s.mag_offsets.iter().filter(|&&d| d > above).count() < k {
             return 0;
         }
         let offset = median_in_place(&mut s.mag_offsets);
@@ -845,6 +862,10 @@ pub(super) fn median_in_place(v: &mut [f64]) -> f64 {
     };
     0.5 * (lower + upper)
 }
+
+/// Most centroids torn between two stars whose owners `match_all` finds by scanning the claims
+/// (more: by a binary search of the claims sorted by star).
+const OWNER_SCAN_MAX_AMBIGUOUS: usize = 8;
 
 /// Most values [`median_in_place`] sorts by insertion.
 const MEDIAN_INSERTION_MAX: usize = 32;
