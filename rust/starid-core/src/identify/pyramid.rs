@@ -301,7 +301,10 @@ impl Search<'_> {
         let look_other = if l0 == shared { l1 } else { l0 };
         let t_close = [t_ij, t_ik, t_jk][closing];
         let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
-        self.scratch.adj_ik.fill(idx.pairs(look.0.clone()), n_cat);
+        // Lists are needed only at the walked pairs' stars.
+        self.scratch
+            .adj_ik
+            .fill_for(idx.pairs(look.0.clone()), idx.pairs(walk.0.clone()), n_cat);
         let adj = &self.scratch.adj_ik;
         for [p, q] in idx.pairs(walk.0) {
             for (x, y) in [(p, q), (q, p)] {
@@ -426,11 +429,16 @@ impl Search<'_> {
             }
         };
         let adj = &mut self.scratch.adj_ik;
-        adj.reset(n_cat);
+        // Lists are needed only at the walked side's shared vertex.
+        adj.start(n_cat);
+        for &p in &entries[ranges[walk].clone()] {
+            let (u, v) = oriented(walk, p);
+            adj.want(if w0 == shared { u } else { v });
+        }
         for &p in &entries[ranges[look].clone()] {
             let (u, v) = oriented(look, p);
             let (at_shared, at_other) = if l0 == shared { (u, v) } else { (v, u) };
-            adj.push(at_shared, at_other);
+            adj.push_wanted(at_shared, at_other);
         }
         for &p in &entries[ranges[walk].clone()] {
             let (u, v) = oriented(walk, p);
@@ -543,6 +551,9 @@ pub(super) struct Adjacency {
     next: Vec<u32>,
     partner: Vec<u32>,
     touched: Vec<u32>,
+    /// Per catalogue star: the fill that last wanted its list (see `fill_for`).
+    wanted: Vec<u32>,
+    fills: u32,
 }
 
 impl Adjacency {
@@ -560,13 +571,56 @@ impl Adjacency {
         self.partner.clear();
     }
 
+    /// Empty the lists for a new fill that keeps only the lists of stars [`Adjacency::want`]ed:
+    /// `partners` may be asked only about those (it answers nothing for the others). The lists
+    /// held are those a fill of every star would hold, in the same order; the pairs of stars no
+    /// one asks about (most of them) are passed over with a look-up and no push.
+    pub(super) fn start(&mut self, n_cat: usize) {
+        self.reset(n_cat);
+        if self.wanted.len() != n_cat || self.fills == u32::MAX {
+            self.wanted.clear();
+            self.wanted.resize(n_cat, 0);
+            self.fills = 0;
+        }
+        self.fills += 1;
+    }
+
+    /// Keep the list of `star` in this fill.
+    #[inline]
+    pub(super) fn want(&mut self, star: u32) {
+        self.wanted[star as usize] = self.fills;
+    }
+
+    /// `partner` onto the list of `star`, if that list is kept.
+    #[inline]
+    pub(super) fn push_wanted(&mut self, star: u32, partner: u32) {
+        if self.wanted[star as usize] == self.fills {
+            self.push(star, partner);
+        }
+    }
+
+    /// The lists of `pairs` (both orientations) at the stars of the pairs `wanted`.
     // Out of line: inlined into the search loop it ran about 1 % more instructions (callgrind).
     #[inline(never)]
-    pub(super) fn fill(&mut self, pairs: impl Iterator<Item = [u32; 2]>, n_cat: usize) {
-        self.reset(n_cat);
+    pub(super) fn fill_for(
+        &mut self,
+        pairs: impl Iterator<Item = [u32; 2]>,
+        wanted: impl Iterator<Item = [u32; 2]>,
+        n_cat: usize,
+    ) {
+        self.start(n_cat);
+        let fill = self.fills;
+        for [p, q] in wanted {
+            self.wanted[p as usize] = fill;
+            self.wanted[q as usize] = fill;
+        }
         for [p, q] in pairs {
-            self.push(p, q);
-            self.push(q, p);
+            if self.wanted[p as usize] == fill {
+                self.push(p, q);
+            }
+            if self.wanted[q as usize] == fill {
+                self.push(q, p);
+            }
         }
     }
 
@@ -591,5 +645,47 @@ impl Adjacency {
                 p
             })
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fill_for_some_stars_holds_their_whole_lists_in_order() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let n_cat = 300;
+        let mut adj = Adjacency::default();
+        for trial in 0..200 {
+            let pair = |rng: &mut rand::rngs::StdRng| {
+                [
+                    rng.random_range(0..n_cat as u32),
+                    rng.random_range(0..n_cat as u32),
+                ]
+            };
+            let pairs: Vec<[u32; 2]> = (0..rng.random_range(0..400))
+                .map(|_| pair(&mut rng))
+                .collect();
+            let wanted: Vec<[u32; 2]> = (0..rng.random_range(0..20))
+                .map(|_| pair(&mut rng))
+                .collect();
+            adj.fill_for(pairs.iter().copied(), wanted.iter().copied(), n_cat);
+            for &star in wanted.iter().flatten() {
+                // Partners as a fill of every star lists them: the latest pair first.
+                let want: Vec<u32> = pairs
+                    .iter()
+                    .rev()
+                    .flat_map(|&[p, q]| {
+                        // Pushed (p, q) then (q, p): reversed, (q, p) comes first.
+                        [(q == star).then_some(p), (p == star).then_some(q)]
+                    })
+                    .flatten()
+                    .collect();
+                let got: Vec<u32> = adj.partners(star).collect();
+                assert_eq!(got, want, "trial {trial}, star {star}");
+            }
+        }
     }
 }
