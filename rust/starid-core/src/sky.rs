@@ -215,6 +215,24 @@ pub struct CellIndex {
     cell_start: Vec<u32>,
     stars: Vec<u32>,
     vectors: Vec<Vector3<f64>>,
+    /// One bit per square of a finer grid ([`FINE_CELLS`] per face edge): set where a star lies
+    /// in the square or in one of its eight neighbours on the face. A query whose search box
+    /// fits in a fine square and whose square's bit is clear has no star to find: most
+    /// look-ups of false spots end there.
+    fine: Vec<u64>,
+}
+
+/// Squares of [`CellIndex`]'s occupancy grid per face edge (a square is about 0.2° at a face's
+/// centre): 196 kB of bits for any catalogue.
+pub const FINE_CELLS: usize = 512;
+
+/// Width of a fine square in gnomonic face coordinates (a face spans −1..1).
+const FINE_SQUARE: f64 = 2.0 / FINE_CELLS as f64;
+
+/// The fine square (0..FINE_CELLS) of a gnomonic face coordinate in −1..1.
+#[inline]
+fn fine_square(t: f64) -> usize {
+    (((t + 1.0) * 0.5 * FINE_CELLS as f64) as usize).min(FINE_CELLS - 1)
 }
 
 /// Face (0..6) of a direction and its gnomonic coordinates on that face.
@@ -253,12 +271,24 @@ impl CellIndex {
             stars[fill[c] as usize] = i as u32;
             fill[c] += 1;
         }
+        let mut fine = vec![0u64; (6 * FINE_CELLS * FINE_CELLS).div_ceil(64)];
+        for v in vectors {
+            let (face, u, w) = cube_face(v);
+            let (i, j) = (fine_square(u), fine_square(w));
+            for a in i.saturating_sub(1)..=(i + 1).min(FINE_CELLS - 1) {
+                for b in j.saturating_sub(1)..=(j + 1).min(FINE_CELLS - 1) {
+                    let bit = (face * FINE_CELLS + a) * FINE_CELLS + b;
+                    fine[bit / 64] |= 1 << (bit % 64);
+                }
+            }
+        }
         let vectors = stars.iter().map(|&s| vectors[s as usize]).collect();
         Self {
             cells_per_edge: g,
             cell_start,
             stars,
             vectors,
+            fine,
         }
     }
 
@@ -267,6 +297,19 @@ impl CellIndex {
     /// [`CELL_QUERY_MAX_RAD`] or the search box leaves the face).
     #[inline]
     pub fn for_each_within(
+        &self,
+        center: &Vector3<f64>,
+        radius: Radius,
+        f: impl FnMut(u32, f64, &Vector3<f64>),
+    ) -> bool {
+        self.scan::<false>(center, radius, f)
+    }
+
+    /// [`CellIndex::for_each_within`]; with `SCREEN`, first the occupancy grid (see `fine`),
+    /// which answers most queries around no star in a few instructions and costs a few more
+    /// on the others: for look-ups that mostly find nothing (false spots).
+    #[inline]
+    fn scan<const SCREEN: bool>(
         &self,
         center: &Vector3<f64>,
         radius: Radius,
@@ -282,6 +325,14 @@ impl CellIndex {
         let h = radius.rad * (1.0 + u * u + w * w) * (1.0 + 4.0 * radius.rad) + 1e-12;
         if u - h <= -1.0 || u + h >= 1.0 || w - h <= -1.0 || w + h >= 1.0 {
             return false;
+        }
+        // A search box within one fine square's width of (u, w) (with a margin for rounding)
+        // holds only stars of its square or the neighbours: none, where the bit is clear.
+        if SCREEN && h <= 0.99 * FINE_SQUARE {
+            let bit = (face * FINE_CELLS + fine_square(u)) * FINE_CELLS + fine_square(w);
+            if self.fine[bit / 64] & (1 << (bit % 64)) == 0 {
+                return true;
+            }
         }
         let g = self.cells_per_edge;
         let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64) as usize).min(g - 1);
@@ -314,7 +365,7 @@ impl CellIndex {
     ) -> Option<(Option<Hit>, Option<Hit>)> {
         let mut best: Option<Hit> = None;
         let mut second: Option<Hit> = None;
-        self.for_each_within(center, radius, |star, c, _| {
+        self.scan::<true>(center, radius, |star, c, _| {
             if best.is_none_or(|b| c > b.1) {
                 second = best;
                 best = Some((star, c));
@@ -519,6 +570,39 @@ mod tests {
             }
         }
         assert!(answered > 7_000, "{answered}");
+    }
+
+    #[test]
+    fn screened_queries_of_small_radius_match_brute_force() {
+        // Radii the occupancy screen serves; points anywhere (mostly around no star) or at
+        // about the radius from a star (its edge), in a sparse and a dense catalogue.
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        for n in [2000, 20_000] {
+            let v = random_sky(&mut rng, n);
+            let cells = CellIndex::new(&v);
+            let mut empty = 0;
+            for q in 0..10_000 {
+                let radius = Radius::new(rng.random_range(1e-5..4e-3));
+                let c = if q % 2 == 0 {
+                    random_sky(&mut rng, 1)[0]
+                } else {
+                    let s = v[rng.random_range(0..v.len())];
+                    let off = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize();
+                    (s + off * radius.rad * rng.random_range(0.9..1.1)).normalize()
+                };
+                let mut all: Vec<(f64, u32)> = (0..v.len() as u32)
+                    .map(|i| (v[i as usize].dot(&c), i))
+                    .filter(|&(d, _)| d >= radius.cos)
+                    .collect();
+                all.sort_by(|a, b| b.0.total_cmp(&a.0));
+                if let Some((best, second)) = cells.nearest_two_within(&c, radius) {
+                    assert_eq!(best.map(|b| b.0), all.first().map(|a| a.1), "{q}");
+                    assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1), "{q}");
+                    empty += usize::from(best.is_none());
+                }
+            }
+            assert!(empty > 2_500, "{n}: {empty}");
+        }
     }
     #[test]
     fn density_map_reads_the_cell_centre_count() {
