@@ -389,7 +389,7 @@ def main() -> None:
     )
     p.add_argument("--rst-python", default=".venv-rst/bin/python", help="python of the ruststartracker environment")
     p.add_argument("--scenarios", default="all", help="comma-separated names or 'all'")
-    p.add_argument("--png", default="peers.png")
+    p.add_argument("--png", default="docs/peers.png")
     p.add_argument("--json", default="bench-results/peers.json", help="where to save the figures (for --replot)")
     p.add_argument("--replot", metavar="JSON", help="only draw the PNG from a saved run")
     args = p.parse_args()

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # One command: virtual environments with starid and its peers, then the side-by-side benchmark.
-#   bash benches/peers/run.sh [--frames 500] [--scenarios all] [--png peers.png]
+#   bash benches/peers/run.sh [--frames 500] [--scenarios all] [--png docs/peers.png]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 VENV=.venv-peers
