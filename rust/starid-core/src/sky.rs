@@ -530,6 +530,20 @@ mod tests {
         }
     }
 
+    /// The nearest two of `v` within `radius` of `c`, by comparing every one.
+    fn nearest_two(
+        v: &[Vector3<f64>],
+        c: &Vector3<f64>,
+        radius: Radius,
+    ) -> (Option<u32>, Option<u32>) {
+        let mut all: Vec<(f64, u32)> = (0..v.len() as u32)
+            .map(|i| (v[i as usize].dot(c), i))
+            .filter(|&(d, _)| d >= radius.cos)
+            .collect();
+        all.sort_by(|a, b| b.0.total_cmp(&a.0));
+        (all.first().map(|a| a.1), all.get(1).map(|a| a.1))
+    }
+
     #[test]
     fn cell_queries_match_brute_force_across_faces_and_corners() {
         let mut rng = rand::rngs::StdRng::seed_from_u64(5);
@@ -551,15 +565,12 @@ mod tests {
                 .normalize()
             };
             let radius = Radius::new(rng.random_range(1e-5..0.06));
-            let mut all: Vec<(f64, u32)> = (0..v.len() as u32)
-                .map(|i| (v[i as usize].dot(&c), i))
-                .filter(|&(d, _)| d >= radius.cos)
-                .collect();
-            all.sort_by(|a, b| b.0.total_cmp(&a.0));
             if let Some((best, second)) = cells.nearest_two_within(&c, radius) {
                 answered += 1;
-                assert_eq!(best.map(|b| b.0), all.first().map(|a| a.1));
-                assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1));
+                assert_eq!(
+                    (best.map(|b| b.0), second.map(|b| b.0)),
+                    nearest_two(&v, &c, radius)
+                );
             } else {
                 assert!(
                     radius.rad > CELL_QUERY_MAX_RAD || {
@@ -590,14 +601,9 @@ mod tests {
                     let off = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize();
                     (s + off * radius.rad * rng.random_range(0.9..1.1)).normalize()
                 };
-                let mut all: Vec<(f64, u32)> = (0..v.len() as u32)
-                    .map(|i| (v[i as usize].dot(&c), i))
-                    .filter(|&(d, _)| d >= radius.cos)
-                    .collect();
-                all.sort_by(|a, b| b.0.total_cmp(&a.0));
                 if let Some((best, second)) = cells.nearest_two_within(&c, radius) {
-                    assert_eq!(best.map(|b| b.0), all.first().map(|a| a.1), "{q}");
-                    assert_eq!(second.map(|b| b.0), all.get(1).map(|a| a.1), "{q}");
+                    let got = (best.map(|b| b.0), second.map(|b| b.0));
+                    assert_eq!(got, nearest_two(&v, &c, radius), "{q}");
                     empty += usize::from(best.is_none());
                 }
             }
