@@ -403,14 +403,31 @@ def identify(
     """
     # The common call (float64 arrays, a known camera) in one native step; any other form comes
     # back NotImplemented and takes the path below, which converts, checks or reads it.
+    # The camera, catalogue and settings of the most common call are looked up inline (each
+    # helper call costs about as much as the lookup): see _camera, resolve_catalog_for, _config.
     if fov_range_deg is None and (camera is not None or (fov_deg is not None and image_size is not None)):
-        cam = _camera(camera, fov_deg, image_size)
+        if camera is None:
+            try:
+                cam = _CAMERAS[(fov_deg, image_size)]
+            except (KeyError, TypeError):
+                cam = _camera(None, fov_deg, image_size)
+        else:
+            cam = _camera(camera, fov_deg, image_size)
+        cat = catalog if type(catalog) is Catalog else resolve_catalog_for(catalog, cam)
+        if config is not None:
+            cfg = _config(config, settings)
+        elif not settings:
+            cfg = _DEFAULT_CONFIG
+        else:
+            try:
+                cfg = _CONFIGS[tuple(settings.items())]
+            except (KeyError, TypeError):
+                cfg = _config(None, settings)
         res = _starid.identify_frame(
-            resolve_catalog_for(catalog, cam)._native, xy, magnitudes, cam, _config(config, settings),
-            attitude_hint, hint_uncertainty_deg, hint_fallback,
+            cat._native, xy, magnitudes, cam, cfg, attitude_hint, hint_uncertainty_deg, hint_fallback
         )
         if res is not NotImplemented:
-            return cast(Identification, res)
+            return res  # type: ignore[return-value]  # an Identification: the native call's other answer
     if _is_image(xy):
         from .images import identify_image
 
