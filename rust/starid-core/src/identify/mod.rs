@@ -2118,7 +2118,7 @@ mod tests {
     fn brightness_order_is_the_stable_order_by_magnitude() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand::rngs::StdRng::seed_from_u64(9);
-        for n in [0, 1, 2, 5, 19, 20, 21, 64, 300] {
+        for n in [0, 1, 2, 5, 19, 20, 21, 64, 65, 300] {
             // Ties, negative magnitudes and signed zeros.
             let m: Vec<f64> = (0..n)
                 .map(|k| match k % 7 {
