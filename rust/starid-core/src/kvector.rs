@@ -221,8 +221,10 @@ impl PairIndex {
         if jt < 0.0 || jb > (bins - 1) as f64 {
             return 0..0;
         }
-        let jb = jb.max(0.0) as usize;
-        let jt = (jt as usize).min(bins - 1);
+        // 32-bit conversions (saturating, as any `as`; the bins number far fewer than 2³²)
+        // are cheaper than ones to usize.
+        let jb = jb as u32 as usize;
+        let jt = (jt as u32 as usize).min(bins - 1);
         let (a, b) = (self.k[jb] as usize, self.k[jt] as usize);
         // k[jb] counts pairs below z(jb) <= lo, so every answer sits at a or later;
         // k[jt] counts pairs below z(jt) >= hi (or all pairs), so every answer sits before b.

@@ -232,7 +232,8 @@ const FINE_SQUARE: f64 = 2.0 / FINE_CELLS as f64;
 /// The fine square (0..FINE_CELLS) of a gnomonic face coordinate in −1..1.
 #[inline]
 fn fine_square(t: f64) -> usize {
-    (((t + 1.0) * 0.5 * FINE_CELLS as f64) as usize).min(FINE_CELLS - 1)
+    // A 32-bit conversion (saturating like any `as`): cheaper than one to usize.
+    (((t + 1.0) * 0.5 * FINE_CELLS as f64) as u32 as usize).min(FINE_CELLS - 1)
 }
 
 /// Face (0..6) of a direction and its gnomonic coordinates on that face.
@@ -335,7 +336,10 @@ impl CellIndex {
             }
         }
         let g = self.cells_per_edge;
-        let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64) as usize).min(g - 1);
+        // (t + 1)·g/2 lies in (0, g) here (the box is inside the face): a 32-bit conversion,
+        // cheaper than a saturating one to usize, is exact.
+        let half = 0.5 * g as f64;
+        let gi = |t: f64| (((t + 1.0) * half) as u32 as usize).min(g - 1);
         let (u0, u1, w0, w1) = (gi(u - h), gi(u + h), gi(w - h), gi(w + h));
         for cu in u0..=u1 {
             let row = (face * g + cu) * g;
@@ -442,7 +446,8 @@ impl DensityMap {
     pub fn at(&self, v: &Vector3<f64>) -> f64 {
         let (face, u, w) = cube_face(v);
         let g = self.cells_per_edge;
-        let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64).max(0.0) as usize).min(g - 1);
+        // A 32-bit conversion (saturating at 0 like any `as`): cheaper than one to usize.
+        let gi = |t: f64| (((t + 1.0) * 0.5 * g as f64) as u32 as usize).min(g - 1);
         f64::from(self.per_sr[(face * g + gi(u)) * g + gi(w)])
     }
 
@@ -459,7 +464,7 @@ impl DensityMap {
 
 #[inline]
 fn zone_of(dec_rad: f64, zone_height_rad: f64, n_zones: usize) -> usize {
-    (((dec_rad + FRAC_PI_2) / zone_height_rad) as usize).min(n_zones - 1)
+    (((dec_rad + FRAC_PI_2) / zone_height_rad) as u32 as usize).min(n_zones - 1)
 }
 
 #[cfg(test)]

@@ -1874,7 +1874,8 @@ impl SortedMags {
 
     #[inline]
     fn bin(&self, m: f32) -> usize {
-        (((m - self.lo) * self.scale).max(0.0) as usize).min(MAG_COUNT_BINS - 1)
+        // Saturating at 0 (and NaN at 0), as any `as`; 32 bits convert faster than usize.
+        (((m - self.lo) * self.scale) as u32 as usize).min(MAG_COUNT_BINS - 1)
     }
 
     /// The smallest catalogue magnitude at least `x`, if any.
