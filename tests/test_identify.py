@@ -217,7 +217,8 @@ def test_identify_many_takes_every_identify_argument(contest: starid.Catalog) ->
 
 def test_every_input_form_gives_the_same_answer(bundled: starid.Catalog) -> None:
     """The common call (float64 arrays) goes to the core in one step; every other form (ints, lists,
-    views, other byte orders, a hint as a list) is converted first. All give the same answer."""
+    views, other byte orders, column-major arrays, a hint as a list) is converted first. All give
+    the same answer, lost in space, hinted, tracked and in a batch."""
     f = starid.simulate(bundled, 12.0, (512, 512), seed=21, noise_px=0.2, mag_noise=0.1)
     kw = {"fov_deg": 12.0, "image_size": (512, 512)}
     ref = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, **kw)
@@ -230,11 +231,20 @@ def test_every_input_form_gives_the_same_answer(bundled: starid.Catalog) -> None
         (f.xy.astype(">f8"), f.magnitudes.astype(">f8")),  # big-endian
         (f.xy, f.magnitudes.astype(np.float32)),
         (f.xy, f.magnitudes.reshape(-1, 1)),
+        # Column-major: contiguous, but numpy's flat data holds every x before every y.
+        (np.asfortranarray(f.xy), f.magnitudes),
+        (f.xy, np.repeat(f.magnitudes, 2)[::2]),
     ]
     for xy, mags in forms:
         res = starid.identify(xy, bundled, magnitudes=mags, **kw)
         assert np.array_equal(res.ids, ref.ids)
         assert np.allclose(res.quaternion, ref.quaternion, atol=1e-9)
+        by_hint = starid.identify(xy, bundled, magnitudes=mags, attitude_hint=ref, **kw)
+        assert by_hint.hinted and np.array_equal(by_hint.ids, ref.ids)
+        tracked = starid.Tracker(bundled, **kw).update(xy, 0.0, magnitudes=mags).identification
+        assert np.array_equal(tracked.ids, ref.ids)
+    batch = starid.identify_many([xy for xy, _ in forms], bundled, magnitudes=[m for _, m in forms], **kw)
+    assert all(np.array_equal(r.ids, ref.ids) for r in batch)
     q = np.asarray(f.quaternion)
     hinted = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, attitude_hint=q, **kw)
     listed = starid.identify(f.xy, bundled, magnitudes=f.magnitudes, attitude_hint=q.tolist(), **kw)

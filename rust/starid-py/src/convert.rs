@@ -18,9 +18,12 @@ pub fn centroids(name: &str, xy: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f6
             shape[0], shape[1]
         )));
     }
-    // A C-contiguous array (the common case) is read as one slice.
-    if let Ok(flat) = xy.as_slice() {
-        return Ok(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect());
+    // A C-contiguous array (the common case) is read as one slice. (Only C order: numpy's
+    // slice of a Fortran-ordered array holds every x before every y.)
+    if xy.is_c_contiguous() {
+        if let Ok(flat) = xy.as_slice() {
+            return Ok(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect());
+        }
     }
     let a = xy.as_array();
     Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
