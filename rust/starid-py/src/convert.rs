@@ -1,7 +1,9 @@
 //! numpy ↔ core conversions with shape and value checks that name the argument.
 
-use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::PyResult;
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
+use pyo3::{Bound, PyResult};
 
 use crate::errors::InvalidInputError;
 
@@ -27,6 +29,40 @@ pub fn centroids(name: &str, xy: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f6
     }
     let a = xy.as_array();
     Ok(a.rows().into_iter().map(|r| [r[0], r[1]]).collect())
+}
+
+/// As [`centroids`], from the array itself: a C-contiguous one (the common case) is copied
+/// whole by `to_vec`, which registers no borrow (the copy is made under the GIL, and the
+/// borrow's bookkeeping cost more than the copy of a frame); any other through a read-only
+/// borrow.
+pub fn centroids_of(name: &str, xy: &Bound<'_, PyArray2<f64>>) -> PyResult<Vec<[f64; 2]>> {
+    let shape = xy.shape();
+    if shape[0] != 0 && shape[1] == 2 && xy.is_c_contiguous() {
+        if let Ok(flat) = xy.to_vec() {
+            return Ok(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect());
+        }
+    }
+    centroids(name, &xy.readonly())
+}
+
+/// As [`magnitudes`], from the array itself (copied as [`centroids_of`] copies).
+pub fn magnitudes_of(m: &Bound<'_, PyArray1<f64>>, n: usize) -> PyResult<Vec<f64>> {
+    match m.to_vec() {
+        Ok(v) if v.len() == n => Ok(v),
+        _ => magnitudes(&m.readonly(), n),
+    }
+}
+
+/// As [`vector`], from the array itself (copied as [`centroids_of`] copies).
+pub fn vector_of(
+    name: &str,
+    a: &Bound<'_, PyArray1<f64>>,
+    len: Option<usize>,
+) -> PyResult<Vec<f64>> {
+    match a.to_vec() {
+        Ok(v) if len.is_none_or(|n| v.len() == n) => Ok(v),
+        _ => vector(name, &a.readonly(), len),
+    }
 }
 
 /// A 1-D float64 array as a `Vec`, optionally checking its length.

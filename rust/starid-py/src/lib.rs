@@ -292,16 +292,12 @@ pub(crate) struct FrameInputs {
 pub(crate) fn frame_inputs(
     py: Python<'_>,
     catalog: &Bound<'_, PyCatalog>,
-    xy: &PyReadonlyArray2<'_, f64>,
-    magnitudes: Option<&PyReadonlyArray1<'_, f64>>,
+    centroids: Vec<[f64; 2]>,
+    mags: Option<Vec<f64>>,
     camera: &Bound<'_, PyCamera>,
     config: &Bound<'_, PyIdentifyConfig>,
 ) -> PyResult<FrameInputs> {
     let cam = camera.get().inner;
-    let centroids = convert::centroids("xy", xy)?;
-    let mags = magnitudes
-        .map(|m| convert::magnitudes(m, centroids.len()))
-        .transpose()?;
     let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
     Ok(FrameInputs {
         cam,
@@ -323,13 +319,29 @@ fn identify<'py>(
     camera: &Bound<'py, PyCamera>,
     config: &Bound<'py, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
+    let centroids = convert::centroids("xy", &xy)?;
+    let mags = magnitudes
+        .map(|m| convert::magnitudes(&m, centroids.len()))
+        .transpose()?;
+    identify_frame_of(py, catalog, centroids, mags, camera, config)
+}
+
+/// [`identify`] of centroids and magnitudes already read.
+fn identify_frame_of(
+    py: Python<'_>,
+    catalog: &Bound<'_, PyCatalog>,
+    centroids: Vec<[f64; 2]>,
+    mags: Option<Vec<f64>>,
+    camera: &Bound<'_, PyCamera>,
+    config: &Bound<'_, PyIdentifyConfig>,
+) -> PyResult<PyIdentification> {
     let FrameInputs {
         cam,
         centroids,
         mags,
         solver,
         cfg,
-    } = frame_inputs(py, catalog, &xy, magnitudes.as_ref(), camera, config)?;
+    } = frame_inputs(py, catalog, centroids, mags, camera, config)?;
     let id = run_core(py, move || {
         solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
     })?;
@@ -357,7 +369,6 @@ fn identify_frame<'py>(
     let Ok(xy) = xy.cast::<PyArray2<f64>>() else {
         return not_here();
     };
-    let xy = xy.readonly();
     // A wide 2-D array may be an image; an empty one is an empty frame.
     if xy.shape()[1] != 2 && xy.shape()[0] != 0 {
         return not_here();
@@ -368,7 +379,7 @@ fn identify_frame<'py>(
         let Ok(m) = magnitudes.cast::<PyArray1<f64>>() else {
             return not_here();
         };
-        Some(m.readonly())
+        Some(m)
     };
     let hint = if hint.is_none() {
         None
@@ -376,12 +387,8 @@ fn identify_frame<'py>(
         let Ok(q) = hint.cast::<PyArray1<f64>>() else {
             return not_here();
         };
-        let q = q.readonly();
-        let Some(&[w, x, y, z]) = q
-            .as_slice()
-            .ok()
-            .and_then(|q| <&[f64; 4]>::try_from(q).ok())
-        else {
+        let q = if q.len() == 4 { q.to_vec().ok() } else { None };
+        let Some(&[w, x, y, z]) = q.as_deref().and_then(|q| <&[f64; 4]>::try_from(q).ok()) else {
             return not_here();
         };
         let Ok(u) = hint_uncertainty_deg.extract::<f64>() else {
@@ -389,12 +396,17 @@ fn identify_frame<'py>(
         };
         Some(([w, x, y, z], u, hint_fallback.is_truthy()?))
     };
-    // The same calls the converting path ends in.
+    // Read without a borrow (see `convert::centroids_of`); then the same calls the converting
+    // path ends in.
+    let centroids = convert::centroids_of("xy", xy)?;
+    let mags = mags
+        .map(|m| convert::magnitudes_of(m, centroids.len()))
+        .transpose()?;
     let id = match hint {
-        None => identify(py, catalog, xy, mags, camera, config)?,
-        Some((q, u, fallback)) => {
-            tracking::identify_hinted(py, catalog, xy, mags, camera, config, q, u, None, fallback)?
-        }
+        None => identify_frame_of(py, catalog, centroids, mags, camera, config)?,
+        Some((q, u, fallback)) => tracking::identify_hinted_of(
+            py, catalog, centroids, mags, camera, config, q, u, None, fallback,
+        )?,
     };
     Ok(id.into_pyobject(py)?.into_any().unbind())
 }

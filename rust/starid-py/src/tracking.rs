@@ -3,7 +3,7 @@
 use std::sync::{Arc, Mutex};
 
 use nalgebra::Rotation3;
-use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use starid_core::simulate::{simulate_sequence as core_sequence, SequenceConfig};
@@ -55,6 +55,38 @@ pub fn identify_hinted<'py>(
     mirrored: Option<bool>,
     fallback: bool,
 ) -> PyResult<PyIdentification> {
+    let centroids = convert::centroids("xy", &xy)?;
+    let mags = magnitudes
+        .map(|m| convert::magnitudes(&m, centroids.len()))
+        .transpose()?;
+    identify_hinted_of(
+        py,
+        catalog,
+        centroids,
+        mags,
+        camera,
+        config,
+        hint_wxyz,
+        uncertainty_deg,
+        mirrored,
+        fallback,
+    )
+}
+
+/// [`identify_hinted`] of centroids and magnitudes already read.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn identify_hinted_of(
+    py: Python<'_>,
+    catalog: &Bound<'_, PyCatalog>,
+    centroids: Vec<[f64; 2]>,
+    mags: Option<Vec<f64>>,
+    camera: &Bound<'_, PyCamera>,
+    config: &Bound<'_, PyIdentifyConfig>,
+    hint_wxyz: [f64; 4],
+    uncertainty_deg: f64,
+    mirrored: Option<bool>,
+    fallback: bool,
+) -> PyResult<PyIdentification> {
     let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
     let crate::FrameInputs {
         cam,
@@ -62,7 +94,7 @@ pub fn identify_hinted<'py>(
         mags,
         solver,
         cfg,
-    } = crate::frame_inputs(py, catalog, &xy, magnitudes.as_ref(), camera, config)?;
+    } = crate::frame_inputs(py, catalog, centroids, mags, camera, config)?;
     let fb = fallback_of(fallback);
     let id = run_core(py, move || {
         solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
@@ -121,13 +153,13 @@ impl PyTracker {
     fn update<'py>(
         &self,
         py: Python<'py>,
-        xy: PyReadonlyArray2<'py, f64>,
+        xy: Bound<'py, PyArray2<f64>>,
         t_s: f64,
-        magnitudes: Option<PyReadonlyArray1<'py, f64>>,
+        magnitudes: Option<Bound<'py, PyArray1<f64>>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let centroids = convert::centroids("xy", &xy)?;
+        let centroids = convert::centroids_of("xy", &xy)?;
         let mags = magnitudes
-            .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
+            .map(|m| convert::vector_of("magnitudes", &m, Some(centroids.len())))
             .transpose()?;
         let solver = self.solver.clone();
         let cam = self.camera;
