@@ -1,7 +1,7 @@
 //! Centroid extraction and the image simulator.
 
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use starid_core::extract::{extract, ExtractConfig};
@@ -22,7 +22,7 @@ fn column<'py, T: numpy::Element>(
     spots.iter().map(f).collect::<Vec<T>>().into_pyarray(py)
 }
 
-/// Extraction over a borrowed numpy image of pixel type `T` (read in place when contiguous).
+/// Extraction over a borrowed numpy image of pixel type `T` (read in place when C-contiguous).
 fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
     py: Python<'_>,
     image: &PyReadonlyArray2<'_, T>,
@@ -30,9 +30,10 @@ fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
 ) -> PyResult<starid_core::extract::Extraction> {
     let view = image.as_array();
     let (h, w) = (view.nrows(), view.ncols());
-    match image.as_slice() {
-        Ok(pixels) => run_core(py, || extract(pixels, w, h, cfg)),
-        Err(_) => {
+    // Read in place only in C order (a column-major array's flat data runs down the columns).
+    match image.as_slice().ok().filter(|_| image.is_c_contiguous()) {
+        Some(pixels) => run_core(py, || extract(pixels, w, h, cfg)),
+        None => {
             let pixels: Vec<T> = view.iter().copied().collect();
             run_core(py, move || extract(&pixels, w, h, cfg))
         }
