@@ -393,8 +393,8 @@ pub struct DensityMap {
     per_sr: Vec<f32>,
 }
 
-/// Most cells along a face edge of a [`DensityMap`] (6 × 64² cells, 96 kB).
-pub const DENSITY_MAP_MAX_CELLS_PER_EDGE: usize = 64;
+/// Most cells along a face edge of a [`DensityMap`] (6 × 128² cells, 384 kB).
+pub const DENSITY_MAP_MAX_CELLS_PER_EDGE: usize = 128;
 
 impl DensityMap {
     /// The map for cones of `radius_rad`, `count(direction)` giving the stars within it; `None`
