@@ -640,6 +640,24 @@ mod tests {
             );
         }
         assert!(map.memory_bytes() > 0 && map.radius_rad() == radius);
+        // A 6° field's cone (half its diagonal): the grid still serves it, at most
+        // DENSITY_MAP_MAX_CELLS_PER_EDGE cells a side, each read near its exact count.
+        let narrow = 3.85f64.to_radians();
+        let count_narrow = |c: &Vector3<f64>| {
+            let mut n = 0;
+            zones.for_each_in_cone(&v, c, narrow, |_, _| n += 1);
+            n
+        };
+        let map = DensityMap::new(narrow, count_narrow).unwrap();
+        assert!(map.memory_bytes() <= 6 * DENSITY_MAP_MAX_CELLS_PER_EDGE.pow(2) * 4);
+        let area = 2.0 * PI * (1.0 - narrow.cos());
+        let mut err = 0.0;
+        for _ in 0..500 {
+            let d = random_sky(&mut rng, 1)[0];
+            err += (map.at(&d) - count_narrow(&d) as f64 / area).abs() / 500.0;
+        }
+        // About 25 stars per cone: the mean error stays well under the Poisson spread (20 %).
+        assert!(err < 0.1 * mean, "{err} {mean}");
         // Too narrow a cone for the grid.
         assert!(DensityMap::new(0.001, count).is_none());
     }
