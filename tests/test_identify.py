@@ -215,6 +215,32 @@ def test_identify_many_takes_every_identify_argument(contest: starid.Catalog) ->
     assert [r.focal_px for r in single] == [r.focal_px for r in res[:3]]
 
 
+def test_mag_offset_keyword_reaches_every_path(bundled: starid.Catalog) -> None:
+    """``mag_offset`` is a named keyword of identify (its common values then need no settings
+    dict); given alone, with other settings, over a config, or with input the one-step call
+    does not take, it is the same setting as in an IdentifyConfig. The scene (K1, 9 real stars
+    among 59 spots, magnitudes 5 mag off) is identified only with the offset known."""
+    f = starid.simulate_scene("K1", bundled, seed=1)
+    kw = {"fov_deg": f.fov_deg, "image_size": f.image_size, "magnitudes": f.magnitudes + 5.0}
+    ref = starid.identify(f.xy, bundled, config=starid.IdentifyConfig(mag_offset=5.0), **kw)
+    assert ref.ok and not starid.identify(f.xy, bundled, **kw).ok
+    calls = [
+        starid.identify(f.xy, bundled, mag_offset=5.0, **kw),
+        starid.identify(f.xy, bundled, mag_offset=5.0, mag_tolerance=0.5, **kw),
+        starid.identify(f.xy, bundled, mag_offset=5.0, config=starid.IdentifyConfig(mag_offset=-3.0), **kw),
+        starid.identify(f.xy.tolist(), bundled, mag_offset=5.0, **kw),
+        starid.identify_many([f.xy], bundled, mag_offset=5.0, **{**kw, "magnitudes": [kw["magnitudes"]]})[0],
+    ]
+    for res in calls:
+        assert res.ok and np.array_equal(res.ids, ref.ids)
+    unknown = starid.identify(f.xy, bundled, config=starid.IdentifyConfig(mag_offset=None), **kw)
+    for res in (starid.identify(f.xy, bundled, mag_offset=None, **kw), starid.identify(f.xy.tolist(), bundled, mag_offset=None, **kw)):
+        assert res.status == unknown.status and np.array_equal(res.ids, unknown.ids)
+    for xy in (f.xy, f.xy.tolist()):
+        with pytest.raises(ValueError, match="mag_offset"):
+            starid.identify(xy, bundled, mag_offset=float("inf"), **kw)
+
+
 def test_every_input_form_gives_the_same_answer(bundled: starid.Catalog) -> None:
     """The common call (float64 arrays) goes to the core in one step; every other form (ints, lists,
     views, other byte orders, column-major arrays, a hint as a list) is converted first. All give

@@ -174,6 +174,9 @@ IdentifyConfig = _starid.IdentifyConfig
 Camera = _starid.Camera
 
 _DEFAULT_CONFIG = IdentifyConfig()
+_UNKNOWN_ZERO_POINT_CONFIG = IdentifyConfig(mag_offset=None)
+# identify()'s mag_offset when not given (None is a value: the zero point is unknown).
+_UNSET: Any = object()
 _F64 = np.dtype(np.float64)
 _CAMERAS: dict[Any, Any] = {}
 
@@ -268,6 +271,7 @@ def identify(
     hint_uncertainty_deg: float = 1.0,
     hint_fallback: bool = True,
     config: Optional[Any] = None,
+    mag_offset: Optional[float] = _UNSET,
     **settings: Any,
 ) -> Identification:
     """Identify the stars of one frame (lost in space: no prior attitude).
@@ -414,10 +418,16 @@ def identify(
         else:
             cam = _camera(camera, fov_deg, image_size)
         cat = catalog if type(catalog) is Catalog else resolve_catalog_for(catalog, cam)
-        if config is not None:
-            cfg = _config(config, settings)
-        elif not settings:
-            cfg = _DEFAULT_CONFIG
+        # mag_offset is a named keyword so that its common values need no settings dict.
+        if config is None and not settings:
+            if mag_offset is _UNSET:
+                cfg = _DEFAULT_CONFIG
+            elif mag_offset is None:
+                cfg = _UNKNOWN_ZERO_POINT_CONFIG
+            else:
+                cfg = _config(None, {"mag_offset": mag_offset})
+        elif config is not None or mag_offset is not _UNSET:
+            cfg = _config(config, settings if mag_offset is _UNSET else {**settings, "mag_offset": mag_offset})
         else:
             try:
                 cfg = _CONFIGS[tuple(settings.items())]
@@ -428,6 +438,8 @@ def identify(
         )
         if res is not NotImplemented:
             return res  # type: ignore[return-value]  # an Identification: the native call's other answer
+    if mag_offset is not _UNSET:
+        settings["mag_offset"] = mag_offset
     if _is_image(xy):
         from .images import identify_image
 
@@ -515,6 +527,7 @@ def identify_many(
     hint_fallback: bool = True,
     threads: Optional[int] = None,
     config: Optional[Any] = None,
+    mag_offset: Optional[float] = _UNSET,
     **settings: Any,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
@@ -549,6 +562,8 @@ def identify_many(
     >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
     [True, True, True, True]
     """
+    if mag_offset is not _UNSET:
+        settings["mag_offset"] = mag_offset
     if len(frames) > 0 and _is_image(frames[0]):
         if magnitudes is not None:
             raise InvalidInputError("images' magnitudes come from their spots: do not pass magnitudes=")
