@@ -77,7 +77,8 @@ def main() -> None:
             mags = [f.magnitudes for f in usable]
         elif not args.no_magnitudes and args.input == "realistic":
             mags = [f.magnitudes + rng.normal(0.0, 0.3, len(f.magnitudes)) + rng.uniform(-8.0, 8.0) for f in usable]
-        kw: dict[str, Any] = {"brightness_order": not args.no_magnitudes}
+        # Only what differs from the defaults, as a user's call would pass it.
+        kw: dict[str, Any] = {"brightness_order": False} if args.no_magnitudes else {}
         if args.input == "realistic":
             kw["mag_offset"] = None
         # Setup outside the timing, like the pair index above: the magnitude-split index is built
