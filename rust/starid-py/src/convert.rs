@@ -96,3 +96,18 @@ pub fn magnitudes(m: &PyReadonlyArray1<'_, f64>, n: usize) -> PyResult<Vec<f64>>
     }
     Ok(v)
 }
+
+/// A frame as the core takes it: pixel centroids and, when given, one magnitude each.
+pub type Frame = (Vec<[f64; 2]>, Option<Vec<f64>>);
+
+/// The [`Frame`] of `xy` and `magnitudes`.
+pub fn frame(
+    xy: &PyReadonlyArray2<'_, f64>,
+    magnitudes: Option<&PyReadonlyArray1<'_, f64>>,
+) -> PyResult<Frame> {
+    let centroids = centroids("xy", xy)?;
+    let mags = magnitudes
+        .map(|m| self::magnitudes(m, centroids.len()))
+        .transpose()?;
+    Ok((centroids, mags))
+}

@@ -319,10 +319,7 @@ fn identify<'py>(
     camera: &Bound<'py, PyCamera>,
     config: &Bound<'py, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
-    let centroids = convert::centroids("xy", &xy)?;
-    let mags = magnitudes
-        .map(|m| convert::magnitudes(&m, centroids.len()))
-        .transpose()?;
+    let (centroids, mags) = convert::frame(&xy, magnitudes.as_ref())?;
     identify_frame_of(py, catalog, centroids, mags, camera, config)
 }
 

@@ -55,10 +55,7 @@ pub fn identify_hinted<'py>(
     mirrored: Option<bool>,
     fallback: bool,
 ) -> PyResult<PyIdentification> {
-    let centroids = convert::centroids("xy", &xy)?;
-    let mags = magnitudes
-        .map(|m| convert::magnitudes(&m, centroids.len()))
-        .transpose()?;
+    let (centroids, mags) = convert::frame(&xy, magnitudes.as_ref())?;
     identify_hinted_of(
         py,
         catalog,
