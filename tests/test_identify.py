@@ -237,7 +237,7 @@ def test_mag_offset_keyword_reaches_every_path(bundled: starid.Catalog) -> None:
     for res in (starid.identify(f.xy, bundled, mag_offset=None, **kw), starid.identify(f.xy.tolist(), bundled, mag_offset=None, **kw)):
         assert res.status == unknown.status and np.array_equal(res.ids, unknown.ids)
     for xy in (f.xy, f.xy.tolist()):
-        with pytest.raises(ValueError, match="mag_offset"):
+        with pytest.raises(ValueError, match=r"mag_offset must be finite .* got inf$"):
             starid.identify(xy, bundled, mag_offset=float("inf"), **kw)
 
 

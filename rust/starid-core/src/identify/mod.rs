@@ -422,13 +422,9 @@ impl IdentifyConfig {
                 self.min_matches
             )));
         }
-        if self
-            .mag_offset
-            .is_some_and(|o| !o.is_finite() || o.abs() > 100.0)
-        {
+        if let Some(o) = self.mag_offset.filter(|o| !o.is_finite() || o.abs() > 100.0) {
             return Err(Error::invalid_input(format!(
-                "mag_offset must be finite and within [-100, 100], got {:?}",
-                self.mag_offset
+                "mag_offset must be finite and within [-100, 100] (or None: unknown), got {o}"
             )));
         }
         if !(self.mag_tolerance.is_finite()
