@@ -215,6 +215,30 @@ def test_identify_many_takes_every_identify_argument(contest: starid.Catalog) ->
     assert [r.focal_px for r in single] == [r.focal_px for r in res[:3]]
 
 
+def test_batch_of_arrays_is_read_natively_as_any_other_form(bundled: starid.Catalog) -> None:
+    """identify_many reads lists of float64 arrays in the core, without a Python loop; any
+    other form is converted frame by frame. Both give the same results, and a frame the core
+    refuses is named by its place either way."""
+    fr = [starid.simulate(bundled, 12.0, (512, 512), seed=s, noise_px=0.2, mag_noise=0.1) for s in range(3)]
+    nan = np.array([[np.nan, 1.0], [2.0, 3.0], [4.0, 5.0], [6.0, 7.0]])
+    kw = {"fov_deg": 12.0, "image_size": (512, 512)}
+    native = starid.identify_many([f.xy for f in fr] + [nan], bundled, magnitudes=[f.magnitudes for f in fr] + [None], **kw)
+    converted = starid.identify_many(
+        [f.xy.astype(np.float32) for f in fr] + [nan.tolist()], bundled,
+        magnitudes=[f.magnitudes.tolist() for f in fr] + [None], **kw,
+    )
+    for a, b in zip(native, converted):
+        assert a.status == b.status and a.message == b.message and np.array_equal(a.ids, b.ids)
+    assert all(r.ok for r in native[:3])
+    assert native[3].status == "invalid_input" and native[3].message.startswith("frame 3: centroid 0 has a non-finite")
+    # A frame whose magnitudes do not fit it is named too (the converting path reports it).
+    short = starid.identify_many(
+        [f.xy for f in fr], bundled, magnitudes=[fr[0].magnitudes[:-1]] + [f.magnitudes for f in fr[1:]], **kw
+    )
+    assert short[0].status == "invalid_input" and short[0].message.startswith("frame 0: magnitudes has")
+    assert [r.ok for r in short[1:]] == [True, True]
+
+
 def test_mag_offset_keyword_reaches_every_path(bundled: starid.Catalog) -> None:
     """``mag_offset`` is a named keyword of identify (its common values then need no settings
     dict); given alone, with other settings, over a config, or with input the one-step call

@@ -583,6 +583,15 @@ def identify_many(
     # reason in ``message``; the others are identified as usual.
     if magnitudes is not None and len(magnitudes) != len(frames):
         raise InvalidInputError(f"magnitudes has {len(magnitudes)} entries for {len(frames)} frames")
+    if threads is not None and int(threads) < 1:
+        raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
+    nthreads = None if threads is None else int(threads)
+    if cam is not None and attitude_hint is None and type(frames) is list:
+        # The common batch (lists of float64 arrays) is read by the core without a Python loop;
+        # any other form comes back NotImplemented and is converted below, frame by frame.
+        res = _starid.identify_many(cat._native, frames, magnitudes, cam, _config(config, settings), nthreads)
+        if res is not NotImplemented:
+            return cast(list[Identification], res)
     xys: list[npt.NDArray[np.float64]] = []
     mags_or_none: list[Optional[npt.NDArray[np.float64]]] = []
     bad: dict[int, str] = {}
@@ -600,8 +609,6 @@ def identify_many(
         xys.append(a)
         mags_or_none.append(m)
     mags = None if magnitudes is None else mags_or_none
-    if threads is not None and int(threads) < 1:
-        raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
     cfg = _config(config, settings)
     if cam is None:
         if attitude_hint is not None:
@@ -613,7 +620,8 @@ def identify_many(
             bool(hint_fallback), cfg, threads, bad,
         )
     else:
-        results = _starid.identify_many(cat._native, xys, mags, cam, cfg, None if threads is None else int(threads))
+        # Every frame is now a float64 array: the core takes the lists as they are.
+        results = cast(list[Identification], _starid.identify_many(cat._native, xys, mags, cam, cfg, nthreads))
     for i, msg in bad.items():
         f = frames[i]
         results[i] = _invalid(msg, len(f) if isinstance(f, Sized) else 0)

@@ -259,12 +259,12 @@ def identify(
 ) -> Identification: ...
 def identify_many(
     catalog: Catalog,
-    xys: list[npt.NDArray[np.float64]],
-    magnitudes: Optional[list[Optional[npt.NDArray[np.float64]]]],
+    xys: object,
+    magnitudes: object,
     camera: Camera,
     config: IdentifyConfig,
     threads: Optional[int] = None,
-) -> list[Identification]: ...
+) -> object: ...
 def simulate(
     catalog: Catalog,
     fov_deg: float,

@@ -23,7 +23,7 @@ use numpy::{
     PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList};
 use starid_core::{geometry, simulate as sim, Camera, IdentifyConfig};
 
 use crate::camera::PyCamera;
@@ -409,66 +409,71 @@ fn identify_frame<'py>(
 }
 
 /// Identify many frames of one camera in parallel (GIL released); results in input order.
+///
+/// `xys` is a list of float64 (N, 2) arrays and `magnitudes` None or a list of None or float64
+/// arrays, one value per centroid. Any other form returns `NotImplemented` (the Python layer
+/// converts it, or names the frame that cannot be): the common batch is read without a Python
+/// loop over its frames. A frame the core refuses (non-finite centroids, say) gets status
+/// `invalid_input` and a message that starts with its place, `frame i: `.
 #[pyfunction]
 #[pyo3(signature = (catalog, xys, magnitudes, camera, config, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify_many<'py>(
     py: Python<'py>,
     catalog: &Bound<'py, PyCatalog>,
-    xys: Vec<PyReadonlyArray2<'py, f64>>,
-    magnitudes: Option<Vec<Option<PyReadonlyArray1<'py, f64>>>>,
+    xys: &Bound<'py, PyAny>,
+    magnitudes: &Bound<'py, PyAny>,
     camera: &Bound<'py, PyCamera>,
     config: &Bound<'py, PyIdentifyConfig>,
     threads: Option<usize>,
-) -> PyResult<Vec<PyIdentification>> {
+) -> PyResult<Py<PyAny>> {
     if threads == Some(0) {
         return Err(InvalidInputError::new_err(
             "threads must be at least 1 (or None for all cores)",
         ));
     }
+    let not_here = || Ok(py.NotImplemented());
+    let Ok(xys) = xys.cast::<PyList>() else {
+        return not_here();
+    };
+    let mag_list = if magnitudes.is_none() {
+        None
+    } else {
+        match magnitudes.cast::<PyList>() {
+            Ok(m) if m.len() == xys.len() => Some(m),
+            _ => return not_here(),
+        }
+    };
     let cam = camera.get().inner;
     let mut frames = Vec::with_capacity(xys.len());
+    let mut mags: Vec<Option<Vec<f64>>> = Vec::with_capacity(xys.len());
     for (i, xy) in xys.iter().enumerate() {
         if i % 4096 == 4095 {
             // A million frames take a while to convert: Ctrl-C works here too.
             py.check_signals()?;
         }
-        // (The frame's name is written only for an error.)
-        frames.push(
-            convert::centroids("xy", xy)
-                .or_else(|_| convert::centroids(&format!("frame {i}"), xy))?,
-        );
-    }
-    let mags: Vec<Option<Vec<f64>>> = match magnitudes {
-        None => vec![None; frames.len()],
-        Some(m) => {
-            if m.len() != frames.len() {
-                return Err(InvalidInputError::new_err(format!(
-                    "magnitudes has {} entries for {} frames",
-                    m.len(),
-                    frames.len()
-                )));
-            }
-            m.iter()
-                .zip(&frames)
-                .enumerate()
-                .map(|(i, (m, f))| {
-                    m.as_ref()
-                        .map(|m| {
-                            // (The frame's name is written only for an error.)
-                            convert::vector("magnitudes", m, Some(f.len())).or_else(|_| {
-                                convert::vector(
-                                    &format!("magnitudes of frame {i}"),
-                                    m,
-                                    Some(f.len()),
-                                )
-                            })
-                        })
-                        .transpose()
-                })
-                .collect::<PyResult<_>>()?
+        let Ok(xy) = xy.cast::<PyArray2<f64>>() else {
+            return not_here();
+        };
+        if xy.shape()[1] != 2 && xy.shape()[0] != 0 {
+            return not_here();
         }
-    };
+        let centroids = convert::centroids_of("xy", xy)?;
+        let m = match mag_list.map(|l| l.get_item(i)).transpose()? {
+            Some(m) if !m.is_none() => {
+                let Ok(m) = m.cast::<PyArray1<f64>>() else {
+                    return not_here();
+                };
+                if m.len() != centroids.len() {
+                    return not_here();
+                }
+                Some(convert::vector_of("magnitudes", m, None)?)
+            }
+            _ => None,
+        };
+        frames.push(centroids);
+        mags.push(m);
+    }
     let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
     let cfg = config.get().inner.clone();
     let refs: Vec<_> = frames
@@ -520,10 +525,12 @@ fn identify_many<'py>(
             .map_err(|e| PyStaridError(e).into())
     })?;
     let cat = catalog.get();
-    Ok(results
-        .iter()
-        .map(|id| PyIdentification::new(cat, id, &cam, f64::NAN))
-        .collect())
+    let out = results.iter().enumerate().map(|(i, id)| {
+        let mut r = PyIdentification::new(cat, id, &cam, f64::NAN);
+        r.name_frame(i);
+        r
+    });
+    Ok(PyList::new(py, out)?.into_any().unbind())
 }
 
 /// Simulate one frame; returns a dict with the centroids and the truth.

@@ -137,6 +137,16 @@ pub struct PyIdentification {
 }
 
 impl PyIdentification {
+    /// Prefix a batch frame's message with its place, `frame i: ` (a message the core wrote
+    /// about the frame does not know which frame it was).
+    pub(crate) fn name_frame(&mut self, i: usize) {
+        if let Some(m) = &self.message {
+            if !m.starts_with("frame ") {
+                self.message = Some(format!("frame {i}: {m}"));
+            }
+        }
+    }
+
     /// From a core result; `camera` is the one used (or estimated), `focal_sigma_px` the 1σ of
     /// an estimated focal length (NaN when it was given).
     pub fn new(

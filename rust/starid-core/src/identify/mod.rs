@@ -422,7 +422,10 @@ impl IdentifyConfig {
                 self.min_matches
             )));
         }
-        if let Some(o) = self.mag_offset.filter(|o| !o.is_finite() || o.abs() > 100.0) {
+        if let Some(o) = self
+            .mag_offset
+            .filter(|o| !o.is_finite() || o.abs() > 100.0)
+        {
             return Err(Error::invalid_input(format!(
                 "mag_offset must be finite and within [-100, 100] (or None: unknown), got {o}"
             )));
