@@ -279,33 +279,17 @@ pub(crate) fn camera(fov_deg: f64, width_px: f64, height_px: f64) -> PyResult<Ca
     Camera::from_fov(fov_deg.to_radians(), width_px, height_px).map_err(|e| PyStaridError(e).into())
 }
 
-/// What identifying one frame needs: the camera, the centroids and magnitudes as the core
-/// takes them (checked), the solver for the camera's field and the settings.
-pub(crate) struct FrameInputs {
-    pub cam: Camera,
-    pub centroids: Vec<[f64; 2]>,
-    pub mags: Option<Vec<f64>>,
-    pub solver: Arc<starid_core::Solver>,
-    pub cfg: IdentifyConfig,
-}
-
-pub(crate) fn frame_inputs(
+/// What identifying one frame of `camera` needs besides the frame: the camera as the core takes
+/// it, the solver for its field and the settings.
+pub(crate) fn frame_setup(
     py: Python<'_>,
     catalog: &Bound<'_, PyCatalog>,
-    centroids: Vec<[f64; 2]>,
-    mags: Option<Vec<f64>>,
     camera: &Bound<'_, PyCamera>,
     config: &Bound<'_, PyIdentifyConfig>,
-) -> PyResult<FrameInputs> {
+) -> PyResult<(Camera, Arc<starid_core::Solver>, IdentifyConfig)> {
     let cam = camera.get().inner;
     let solver = catalog.get().solver(py, cam.diagonal_fov_rad())?;
-    Ok(FrameInputs {
-        cam,
-        centroids,
-        mags,
-        solver,
-        cfg: config.get().inner.clone(),
-    })
+    Ok((cam, solver, config.get().inner.clone()))
 }
 
 /// Identify one frame.
@@ -332,13 +316,7 @@ fn identify_frame_of(
     camera: &Bound<'_, PyCamera>,
     config: &Bound<'_, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
-    let FrameInputs {
-        cam,
-        centroids,
-        mags,
-        solver,
-        cfg,
-    } = frame_inputs(py, catalog, centroids, mags, camera, config)?;
+    let (cam, solver, cfg) = frame_setup(py, catalog, camera, config)?;
     let id = run_core(py, move || {
         solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
     })?;
@@ -384,8 +362,7 @@ fn identify_frame<'py>(
         let Ok(q) = hint.cast::<PyArray1<f64>>() else {
             return not_here();
         };
-        let q = if q.len() == 4 { q.to_vec().ok() } else { None };
-        let Some(&[w, x, y, z]) = q.as_deref().and_then(|q| <&[f64; 4]>::try_from(q).ok()) else {
+        let Some([w, x, y, z]) = q.to_vec().ok().and_then(|q| <[f64; 4]>::try_from(q).ok()) else {
             return not_here();
         };
         let Ok(u) = hint_uncertainty_deg.extract::<f64>() else {
@@ -467,7 +444,7 @@ fn identify_many<'py>(
                 if m.len() != centroids.len() {
                     return not_here();
                 }
-                Some(convert::vector_of("magnitudes", m, None)?)
+                Some(convert::magnitudes_of(m, centroids.len())?)
             }
             _ => None,
         };

@@ -85,13 +85,7 @@ pub(crate) fn identify_hinted_of(
     fallback: bool,
 ) -> PyResult<PyIdentification> {
     let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
-    let crate::FrameInputs {
-        cam,
-        centroids,
-        mags,
-        solver,
-        cfg,
-    } = crate::frame_inputs(py, catalog, centroids, mags, camera, config)?;
+    let (cam, solver, cfg) = crate::frame_setup(py, catalog, camera, config)?;
     let fb = fallback_of(fallback);
     let id = run_core(py, move || {
         solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
