@@ -586,10 +586,11 @@ def identify_many(
     if threads is not None and int(threads) < 1:
         raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
     nthreads = None if threads is None else int(threads)
+    cfg = _config(config, settings)
     if cam is not None and attitude_hint is None and type(frames) is list:
         # The common batch (lists of float64 arrays) is read by the core without a Python loop;
         # any other form comes back NotImplemented and is converted below, frame by frame.
-        res = _starid.identify_many(cat._native, frames, magnitudes, cam, _config(config, settings), nthreads)
+        res = _starid.identify_many(cat._native, frames, magnitudes, cam, cfg, nthreads)
         if res is not NotImplemented:
             return cast(list[Identification], res)
     xys: list[npt.NDArray[np.float64]] = []
@@ -601,7 +602,7 @@ def identify_many(
             if type(f) is np.ndarray and f.dtype is _F64 and f.ndim == 2 and f.shape[1] == 2:
                 a = f
             else:
-                a = _xy(f, f"frame {i}")
+                a = _xy(f)
             m = None if magnitudes is None else _magnitudes(magnitudes[i], a.shape[0])
         except ValueError as e:
             bad[i] = f"frame {i}: {e}"
@@ -609,7 +610,6 @@ def identify_many(
         xys.append(a)
         mags_or_none.append(m)
     mags = None if magnitudes is None else mags_or_none
-    cfg = _config(config, settings)
     if cam is None:
         if attitude_hint is not None:
             raise InvalidInputError("an attitude hint needs a known field of view (fov_deg or camera)")
@@ -622,12 +622,11 @@ def identify_many(
     else:
         # Every frame is now a float64 array: the core takes the lists as they are.
         results = cast(list[Identification], _starid.identify_many(cat._native, xys, mags, cam, cfg, nthreads))
+    # (A frame the core refuses in a batch is already named by its place: see the native
+    # identify_many; the threaded paths name theirs.)
     for i, msg in bad.items():
         f = frames[i]
         results[i] = _invalid(msg, len(f) if isinstance(f, Sized) else 0)
-    for i, r in enumerate(results):
-        if r.message is not None and not r.message.startswith("frame "):
-            results[i] = _invalid(f"frame {i}: {r.message}", len(r.ids))
     return results
 
 
