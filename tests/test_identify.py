@@ -106,8 +106,16 @@ def test_threads_share_a_catalogue(contest: starid.Catalog) -> None:
 def test_index_info(contest: starid.Catalog) -> None:
     info = contest.index_info(12.0, (512, 512))
     assert info["pairs"] > 100_000 and 0 < info["bright_pairs"] < info["pairs"] / 4
-    # Both indexes, 9 bytes a pair: under the 4 MB the 12-degree contest index must fit in.
-    assert 8 * (info["pairs"] + info["bright_pairs"]) < info["memory_bytes"] < 4_000_000
+    # Both indexes, 4.5 bytes a pair: under the 2 MB the 12-degree contest index must fit in.
+    assert 4 * (info["pairs"] + info["bright_pairs"]) < info["memory_bytes"] < 2_000_000
+
+
+def test_bundled_indexes_fit_in_8_mb() -> None:
+    # Issue 11's budget: every index a 12-degree solver of the bundled catalogue keeps, the
+    # magnitude-split one included.
+    info = starid.Catalog.default().index_info(12.0, (512, 512), magnitude_index=True)
+    assert info["magnitude_index_bytes"] > 0
+    assert info["memory_bytes"] <= 8_000_000
 
 
 def test_results_are_immutable_and_pickle() -> None:

@@ -1,15 +1,20 @@
 //! The k-vector index over catalogue star pairs (Mortari & Neta 2000).
 //!
-//! Every pair of catalogue stars closer than `max_angle_rad` is stored with its angular
-//! separation, sorted by separation. A straight line `z(j) = m·j + q` through the smallest and
-//! largest separation (widened by a hair) maps an angle to a bin in O(1); the k-vector
-//! `k[j]` counts the pairs with separation below `z(j)`. A range query `[lo, hi]` then reads
-//! `k` at the two bins and trims the few pairs of the end bins by binary search, so its cost is
-//! O(1 + answers) whatever the catalogue size.
+//! Every pair of catalogue stars closer than `max_angle_rad` is stored, sorted by separation. A
+//! straight line `z(j) = m·j + q` through the smallest and largest separation (widened by a hair)
+//! maps an angle to a bin in O(1); the k-vector `k[j]` counts the pairs with separation below
+//! `z(j)`. A range query `[lo, hi]` reads `k` at the two bins that hold `lo` and `hi`: O(1)
+//! whatever the catalogue size.
 //!
-//! Each bin holds [`PAIRS_PER_BIN`] pairs on average: the k-vector costs a quarter of a word per
-//! pair instead of one. Catalogues of at most 65 536 stars store a pair's two stars as 16-bit
-//! indices: 9 bytes a pair in all (f32 angle, two u16, a quarter of a u32), 13 beyond that.
+//! The separations themselves are not stored. A range answers with whole bins, so it may hold
+//! pairs up to one bin's width ([`PairIndex::slack_rad`]) outside `[lo, hi]`; at the bundled
+//! catalogue's 12° index that is 0.6″, a hundredth of a pixel, far inside any search's tolerance.
+//! A caller that needs the exact set ([`PairIndex::range_parts`]) checks the pairs of the two end
+//! bins against the catalogue's vectors, which it holds anyway. Without the separations a pair
+//! costs its two star indices and an eighth of a k-vector word: 4.5 bytes for catalogues of at
+//! most 65 536 stars (16-bit indices), 8.5 beyond (it was 9 with an f32 separation and bins of
+//! four pairs), so that the pair index and the magnitude-split index of the bundled catalogue
+//! fit in 8 MB together at 12°.
 
 use std::ops::Range;
 
@@ -19,7 +24,11 @@ use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 
 /// Average number of pairs per k-vector bin.
-pub const PAIRS_PER_BIN: usize = 4;
+pub const PAIRS_PER_BIN: usize = 8;
+
+/// Allowance for the f32 rounding of the separations the bins were counted from, radians (an
+/// f32 holds a separation of 0.6 rad to 3.6·10⁻⁸ rad).
+const ROUNDING_RAD: f64 = 1e-7;
 
 /// Largest index we agree to build, in pairs (about 1.2 GB).
 pub const MAX_PAIRS: usize = 100_000_000;
@@ -65,12 +74,84 @@ impl Iterator for Pairs<'_> {
 
 impl ExactSizeIterator for Pairs<'_> {}
 
+/// A separation interval `[lo, hi]` and the cosines of its ends, for
+/// [`PairIndex::range_exact`].
+#[derive(Debug, Clone, Copy)]
+pub struct AngleWindow {
+    lo_rad: f64,
+    hi_rad: f64,
+    /// `cos(hi)`: a pair inside has a dot product at least this.
+    cos_lo: f64,
+    /// `cos(max(lo, 0))`: a pair inside has a dot product at most this.
+    cos_hi: f64,
+}
+
+impl AngleWindow {
+    /// The interval `[lo_rad, hi_rad]` (empty when `hi_rad < lo_rad`).
+    ///
+    /// # Example
+    /// ```
+    /// let w = starid_core::kvector::AngleWindow::new(0.1, 0.2);
+    /// assert_eq!(w.bounds(), (0.1, 0.2));
+    /// ```
+    pub fn new(lo_rad: f64, hi_rad: f64) -> Self {
+        Self {
+            lo_rad,
+            hi_rad,
+            cos_lo: hi_rad.min(std::f64::consts::PI).cos(),
+            cos_hi: lo_rad.max(0.0).cos(),
+        }
+    }
+
+    /// `[t − eps, t + eps]` from the cosines and sines of `t` and `eps` (`[cos, sin]`), without
+    /// a trigonometric call: the search knows them for every side it tries.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::kvector::AngleWindow;
+    /// let (t, eps) = (0.1f64, 0.001f64);
+    /// let a = AngleWindow::around(t, [t.cos(), t.sin()], eps, [eps.cos(), eps.sin()]);
+    /// let b = AngleWindow::new(t - eps, t + eps);
+    /// assert_eq!(a.bounds(), b.bounds());
+    /// assert!((a.cosines().0 - b.cosines().0).abs() < 1e-15 && (a.cosines().1 - b.cosines().1).abs() < 1e-15);
+    /// ```
+    #[inline]
+    pub fn around(t: f64, [cos_t, sin_t]: [f64; 2], eps: f64, [cos_e, sin_e]: [f64; 2]) -> Self {
+        let (lo_rad, hi_rad) = (t - eps, t + eps);
+        Self {
+            lo_rad,
+            hi_rad,
+            cos_lo: if hi_rad >= std::f64::consts::PI {
+                -1.0
+            } else {
+                cos_t * cos_e - sin_t * sin_e
+            },
+            cos_hi: if lo_rad <= 0.0 {
+                1.0
+            } else {
+                cos_t * cos_e + sin_t * sin_e
+            },
+        }
+    }
+
+    /// `(lo, hi)`, radians.
+    pub fn bounds(&self) -> (f64, f64) {
+        (self.lo_rad, self.hi_rad)
+    }
+
+    /// `(cos(hi), cos(max(lo, 0)))`: a pair inside the window has a dot product between them.
+    pub fn cosines(&self) -> (f64, f64) {
+        (self.cos_lo, self.cos_hi)
+    }
+}
+
 /// Sorted catalogue pairs with their k-vector.
 #[derive(Debug, Clone)]
 pub struct PairIndex {
     max_angle_rad: f64,
-    /// Separations in radians, ascending.
-    angles: Vec<f32>,
+    /// How many pairs.
+    len: usize,
+    /// The pairs, by ascending separation.
     pairs: PairStore,
     /// `k[j]` = number of pairs with angle < `q + m·j`.
     k: Vec<u32>,
@@ -148,13 +229,14 @@ impl PairIndex {
         } else {
             PairStore::Wide(entries.into_iter().map(|e| e.1).collect())
         };
-        Ok(Self::from_sorted(angles, pairs, max_angle_rad))
+        Ok(Self::from_sorted(&angles, pairs, max_angle_rad))
     }
 
-    /// An index over pairs already sorted by angle (`angles` ascending, one per pair) of a
-    /// catalogue of `n_stars` stars.
+    /// An index over pairs of a catalogue of `n_stars` stars already sorted by separation, with
+    /// `angles` their separations as f32 (ascending, one per pair): they count the bins and are
+    /// not kept.
     pub(crate) fn from_sorted_pairs(
-        angles: Vec<f32>,
+        angles: &[f32],
         pairs: &[[u32; 2]],
         n_stars: usize,
         max_angle_rad: f64,
@@ -168,7 +250,7 @@ impl PairIndex {
         Self::from_sorted(angles, store, max_angle_rad)
     }
 
-    fn from_sorted(angles: Vec<f32>, pairs: PairStore, max_angle_rad: f64) -> Self {
+    fn from_sorted(angles: &[f32], pairs: PairStore, max_angle_rad: f64) -> Self {
         let n = angles.len();
         let bins = (n / PAIRS_PER_BIN).max(2);
         let (lo, hi) = if n == 0 {
@@ -191,7 +273,7 @@ impl PairIndex {
         k[bins - 1] = n as u32;
         Self {
             max_angle_rad,
-            angles,
+            len: n,
             pairs,
             k,
             slope,
@@ -199,40 +281,111 @@ impl PairIndex {
         }
     }
 
-    /// Positions in [`PairIndex::pairs`] of every pair with separation in `[lo_rad, hi_rad]`.
+    /// Positions in [`PairIndex::pairs`] of every pair with separation in `[lo_rad, hi_rad]`,
+    /// and of the pairs that share their end bins: those lie at most [`PairIndex::slack_rad`]
+    /// outside the interval.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::geometry::angle_between;
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// let v = cat.vectors();
+    /// let (lo, hi) = (0.10, 0.11);
+    /// let inside = |[i, j]: [u32; 2]| (lo..=hi).contains(&angle_between(&v[i as usize], &v[j as usize]));
+    /// let n = idx.pairs(idx.range(lo, hi)).filter(|&p| inside(p)).count();
+    /// assert!(n > 0 && n <= idx.range(lo, hi).len());
+    /// ```
+    #[inline]
+    pub fn range(&self, lo_rad: f64, hi_rad: f64) -> Range<usize> {
+        self.range_parts(lo_rad, hi_rad).0
+    }
+
+    /// [`PairIndex::range`] and, inside it, the pairs of the bins wholly within
+    /// `[lo_rad, hi_rad]` (to within the f32 rounding of the separations the bins were counted
+    /// from, 10⁻⁷ rad): only the pairs of the first range outside the second need checking
+    /// against the interval.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::geometry::angle_between;
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// let v = cat.vectors();
+    /// let (all, sure) = idx.range_parts(0.10, 0.12);
+    /// assert!(all.start <= sure.start && sure.end <= all.end && !sure.is_empty());
+    /// for [i, j] in idx.pairs(sure) {
+    ///     let a = angle_between(&v[i as usize], &v[j as usize]);
+    ///     assert!(a >= 0.10 - 1e-7 && a <= 0.12 + 1e-7);
+    /// }
+    /// ```
+    #[inline]
+    pub fn range_parts(&self, lo_rad: f64, hi_rad: f64) -> (Range<usize>, Range<usize>) {
+        let n = self.len;
+        // Also refuses NaN bounds (no ordering).
+        if n == 0 || hi_rad.partial_cmp(&lo_rad).is_none_or(|o| o.is_lt()) {
+            return (0..0, 0..0);
+        }
+        let bins = self.k.len();
+        // The bins holding lo and hi: z(jb) <= lo < z(jb + 1) and z(jt - 1) <= hi < z(jt).
+        // Truncating conversions, not floor (a library call on baseline x86-64): below zero, lo
+        // reads bin 0 (saturating) and hi lies below every pair.
+        let xb = (lo_rad - ROUNDING_RAD - self.intercept) / self.slope;
+        let xt = (hi_rad + ROUNDING_RAD - self.intercept) / self.slope;
+        if xt < 0.0 || xb >= (bins - 1) as f64 {
+            return (0..0, 0..0);
+        }
+        // 32-bit conversions (the bins number far fewer than 2³²) are cheaper than ones to usize.
+        let jb = xb as u32 as usize;
+        let jt = (xt as u32 as usize + 1).min(bins - 1);
+        // k[jb] counts pairs below z(jb) <= lo, so every answer sits at a or later;
+        // k[jt] counts pairs below z(jt) > hi (or all pairs), so every answer sits before b.
+        let (a, b) = (self.k[jb] as usize, self.k[jt] as usize);
+        // The bins between hold pairs in [z(jb + 1), z(jt - 1)), inside [lo, hi].
+        let sure = if jb + 2 <= jt {
+            let (c, d) = (self.k[jb + 1] as usize, self.k[jt - 1] as usize);
+            c..d.max(c)
+        } else {
+            a..a
+        };
+        (a..b, sure)
+    }
+
+    /// Positions of exactly the pairs with separation in `window` (to within the f64 rounding of
+    /// a dot product): [`PairIndex::range_parts`], its two end bins trimmed by binary search on
+    /// the separations of their pairs, recomputed from the catalogue's unit vectors `vectors`.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::geometry::angle_between;
+    /// use starid_core::kvector::AngleWindow;
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
+    /// let v = cat.vectors();
+    /// let r = idx.range_exact(&AngleWindow::new(0.10, 0.11), v);
+    /// let inside = |[i, j]: [u32; 2]| (0.10..=0.11).contains(&angle_between(&v[i as usize], &v[j as usize]));
+    /// assert!(!r.is_empty() && idx.pairs(r.clone()).all(inside));
+    /// assert_eq!(idx.pairs(idx.range(0.10, 0.11)).filter(|&p| inside(p)).count(), r.len());
+    /// ```
+    pub fn range_exact(&self, window: &AngleWindow, vectors: &[Vector3<f64>]) -> Range<usize> {
+        let (all, sure) = self.range_parts(window.lo_rad, window.hi_rad);
+        match &self.pairs {
+            PairStore::Narrow(ps) => trim(ps, all, sure, window, vectors),
+            PairStore::Wide(ps) => trim(ps, all, sure, window, vectors),
+        }
+    }
+
+    /// How far outside a query's interval the pairs of [`PairIndex::range`] may lie, radians:
+    /// one bin's width and the rounding allowance.
     ///
     /// # Example
     /// ```
     /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
     /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
-    /// let r = idx.range(0.10, 0.11);
-    /// // The range may hold a few pairs just outside [lo, hi]: check the angles.
-    /// assert!(idx.angles(r.clone()).iter().filter(|&&a| (0.10..=0.11).contains(&(a as f64))).count() > 0);
+    /// assert!(idx.slack_rad() < 1e-4);
     /// ```
-    pub fn range(&self, lo_rad: f64, hi_rad: f64) -> Range<usize> {
-        let n = self.angles.len();
-        if n == 0 || hi_rad < lo_rad {
-            return 0..0;
-        }
-        let bins = self.k.len();
-        // One bin of slack on each side absorbs the f32 rounding of the stored angles.
-        let jb = ((lo_rad - self.intercept) / self.slope).floor() - 1.0;
-        let jt = ((hi_rad - self.intercept) / self.slope).ceil() + 1.0;
-        if jt < 0.0 || jb > (bins - 1) as f64 {
-            return 0..0;
-        }
-        // 32-bit conversions (saturating, as any `as`; the bins number far fewer than 2³²)
-        // are cheaper than ones to usize.
-        let jb = jb as u32 as usize;
-        let jt = (jt as u32 as usize).min(bins - 1);
-        let (a, b) = (self.k[jb] as usize, self.k[jt] as usize);
-        // k[jb] counts pairs below z(jb) <= lo, so every answer sits at a or later;
-        // k[jt] counts pairs below z(jt) >= hi (or all pairs), so every answer sits before b.
-        let (lo32, hi32) = (lo_rad as f32, hi_rad as f32);
-        let slice = &self.angles[a..b];
-        let start = a + slice.partition_point(|&x| x < lo32);
-        let end = a + slice.partition_point(|&x| x <= hi32);
-        start..end.max(start)
+    pub fn slack_rad(&self) -> f64 {
+        self.slope + 2.0 * ROUNDING_RAD
     }
 
     /// Catalogue indices of the pairs at `range`.
@@ -245,9 +398,9 @@ impl PairIndex {
     /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
     /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
     /// let r = idx.range(0.10, 0.11);
-    /// for ([i, j], a) in idx.pairs(r.clone()).zip(idx.angles(r)) {
-    ///     let exact = starid_core::geometry::angle_between(&cat.vectors()[i as usize], &cat.vectors()[j as usize]);
-    ///     assert!((exact - *a as f64).abs() < 1e-6);
+    /// for [i, j] in idx.pairs(r) {
+    ///     let a = starid_core::geometry::angle_between(&cat.vectors()[i as usize], &cat.vectors()[j as usize]);
+    ///     assert!(i < j && a >= 0.10 - idx.slack_rad() && a <= 0.11 + idx.slack_rad());
     /// }
     /// ```
     pub fn pairs(&self, range: Range<usize>) -> Pairs<'_> {
@@ -255,19 +408,6 @@ impl PairIndex {
             PairStore::Narrow(p) => Pairs::Narrow(p[range].iter()),
             PairStore::Wide(p) => Pairs::Wide(p[range].iter()),
         }
-    }
-
-    /// Separation in radians of the pairs at `range`.
-    ///
-    /// # Example
-    /// ```
-    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
-    /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
-    /// let a = idx.angles(idx.range(0.0, 0.2));
-    /// assert!(a.windows(2).all(|w| w[0] <= w[1])); // sorted by angle
-    /// ```
-    pub fn angles(&self, range: Range<usize>) -> &[f32] {
-        &self.angles[range]
     }
 
     /// Number of pairs.
@@ -278,7 +418,7 @@ impl PairIndex {
     /// assert!(starid_core::PairIndex::build(&cat, 0.1).unwrap().len() < starid_core::PairIndex::build(&cat, 0.2).unwrap().len());
     /// ```
     pub fn len(&self) -> usize {
-        self.angles.len()
+        self.len
     }
 
     /// Whether no pair is indexed.
@@ -289,7 +429,7 @@ impl PairIndex {
     /// assert!(!starid_core::PairIndex::build(&cat, 0.2).unwrap().is_empty());
     /// ```
     pub fn is_empty(&self) -> bool {
-        self.angles.is_empty()
+        self.len == 0
     }
 
     /// Largest indexed separation, radians.
@@ -309,20 +449,20 @@ impl PairIndex {
     /// ```
     /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
     /// let idx = starid_core::PairIndex::build(&cat, 0.2).unwrap();
-    /// assert!(idx.memory_bytes() >= 8 * idx.len());
+    /// assert!(idx.memory_bytes() >= 4 * idx.len());
     /// ```
     pub fn memory_bytes(&self) -> usize {
         let pair_bytes = match &self.pairs {
             PairStore::Narrow(p) => p.len() * 4,
             PairStore::Wide(p) => p.len() * 8,
         };
-        self.angles.len() * 4 + pair_bytes + self.k.len() * 4
+        pair_bytes + self.k.len() * 4
     }
 
     /// Heap memory in bytes of an index holding `n_pairs` pairs of a catalogue of `n_stars`
     /// stars, without building it.
     pub(crate) fn memory_bytes_for(n_pairs: usize, n_stars: usize) -> usize {
-        let per_pair = if n_stars <= NARROW_PAIR_STARS { 8 } else { 12 };
+        let per_pair = if n_stars <= NARROW_PAIR_STARS { 4 } else { 8 };
         n_pairs * per_pair + (n_pairs / PAIRS_PER_BIN).max(2) * 4
     }
 
@@ -349,6 +489,31 @@ impl PairIndex {
             (0..vectors.len()).map(per_star).sum()
         }
     }
+}
+
+/// `all` less the pairs of its end bins (outside `sure`) that lie outside `window`, by binary
+/// search: separations ascend, so the pairs' dot products descend (up to the f32 rounding the
+/// order came from).
+fn trim<T: Copy + Into<u32>>(
+    pairs: &[[T; 2]],
+    all: Range<usize>,
+    sure: Range<usize>,
+    window: &AngleWindow,
+    vectors: &[Vector3<f64>],
+) -> Range<usize> {
+    let dot = |p: &[T; 2]| vectors[p[0].into() as usize].dot(&vectors[p[1].into() as usize]);
+    // Still below lo: the first pair at or above lo lies after it.
+    let below = |p: &[T; 2]| dot(p) > window.cos_hi;
+    // At or below hi: the first pair above hi lies after it.
+    let not_above = |p: &[T; 2]| dot(p) >= window.cos_lo;
+    if sure.is_empty() {
+        let start = all.start + pairs[all.clone()].partition_point(below);
+        let end = start + pairs[start..all.end].partition_point(not_above);
+        return start..end;
+    }
+    let start = all.start + pairs[all.start..sure.start].partition_point(below);
+    let end = sure.end + pairs[sure.end..all.end].partition_point(not_above);
+    start..end
 }
 
 /// Every pair of members within `max_angle_rad`, found through the catalogue's zone index.
@@ -394,16 +559,49 @@ mod tests {
     use super::*;
 
     #[test]
-    fn range_handles_edges() {
-        let angles = vec![0.1f32, 0.2, 0.2, 0.3, 0.5];
-        let pairs = PairStore::Wide((0..5).map(|i| [i, i + 1]).collect());
-        let idx = PairIndex::from_sorted(angles, pairs, 1.0);
-        assert_eq!(idx.range(0.2, 0.2), 1..3);
-        assert_eq!(idx.range(0.0, 1.0), 0..5);
-        assert_eq!(idx.range(0.6, 1.0), 5..5);
-        assert_eq!(idx.range(-1.0, 0.05), 0..0);
-        assert_eq!(idx.range(0.25, 0.31), 3..4);
-        assert_eq!(idx.range(0.3, 0.2), 0..0);
+    fn range_holds_every_answer_and_nothing_beyond_its_slack() {
+        // Separations with repeats, gaps and both ends.
+        let angles: Vec<f32> = (0..400u32)
+            .map(|i| 0.1 + 0.001 * (i - i % 3) as f32 + if i > 300 { 0.2 } else { 0.0 })
+            .collect();
+        let pairs = PairStore::Wide((0..400).map(|i| [i, i + 1]).collect());
+        let idx = PairIndex::from_sorted(&angles, pairs, 1.0);
+        let slack = idx.slack_rad();
+        for (lo, hi) in [
+            (0.2, 0.2),
+            (0.0, 1.0),
+            (0.25, 0.31),
+            (0.39, 0.52),
+            (0.1, 0.1),
+            (0.699, 0.8),
+        ] {
+            let (all, sure) = idx.range_parts(lo, hi);
+            assert!(all.start <= sure.start && sure.end <= all.end);
+            for (i, &a) in angles.iter().enumerate() {
+                let a = f64::from(a);
+                if (lo..=hi).contains(&a) {
+                    assert!(all.contains(&i), "{lo}..{hi} misses {a}");
+                }
+                if all.contains(&i) {
+                    assert!(a >= lo - slack && a <= hi + slack, "{lo}..{hi} holds {a}");
+                }
+                if sure.contains(&i) {
+                    assert!(
+                        a >= lo - 1e-7 && a <= hi + 1e-7,
+                        "{lo}..{hi} is sure of {a}"
+                    );
+                }
+            }
+        }
+        for (lo, hi) in [
+            (0.3, 0.2),
+            (-1.0, 0.05),
+            (0.9, 1.0),
+            (f64::NAN, 0.2),
+            (0.2, f64::NAN),
+        ] {
+            assert!(idx.range(lo, hi).is_empty(), "{lo}..{hi}");
+        }
     }
 
     #[test]
@@ -412,7 +610,12 @@ mod tests {
         let narrow = PairIndex::build(&small, 0.1).unwrap();
         assert!(matches!(narrow.pairs, PairStore::Narrow(_)));
         let all: Vec<[u32; 2]> = narrow.pairs(0..narrow.len()).collect();
-        let wide = PairIndex::from_sorted(narrow.angles.clone(), PairStore::Wide(all.clone()), 0.1);
+        let v = small.vectors();
+        let angles: Vec<f32> = all
+            .iter()
+            .map(|&[i, j]| crate::geometry::angle_between(&v[i as usize], &v[j as usize]) as f32)
+            .collect();
+        let wide = PairIndex::from_sorted(&angles, PairStore::Wide(all.clone()), 0.1);
         for (lo, hi) in [(0.0, 0.1), (0.03, 0.031), (0.05, 0.2)] {
             let (a, b) = (narrow.range(lo, hi), wide.range(lo, hi));
             assert_eq!(a, b);

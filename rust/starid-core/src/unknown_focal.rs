@@ -30,6 +30,7 @@ use crate::geometry::Camera;
 use crate::identify::{
     binomial_tail, validate_centroids, Identification, IdentifyConfig, Solver, Status,
 };
+use crate::kvector::AngleWindow;
 use crate::pointing::{focal_for_angle, refine_pointing, PointingFit, RefineOptions};
 use crate::sky::Radius;
 
@@ -389,14 +390,19 @@ impl FocalSearch<'_> {
         let lo = self.angle_at(p, q, f_hi) - eps;
         let hi = self.angle_at(p, q, f_lo) + eps;
         let index = self.solver.pair_index();
-        let range = index.range(lo.max(0.0), hi);
-        self.base_pairs += range.len();
         let catalog = self.solver.catalog();
         let vectors = catalog.vectors();
+        let range = index.range_exact(&AngleWindow::new(lo.max(0.0), hi), vectors);
+        self.base_pairs += range.len();
         let reach = (d(p, r) + d(q, r)) / base;
         let mut found = Vec::new();
-        for (pair, &angle) in index.pairs(range.clone()).zip(index.angles(range)) {
-            let Some(f) = focal_for_angle(&self.off[p], &self.off[q], f64::from(angle)) else {
+        for pair in index.pairs(range) {
+            // The index keeps no separations: the pair's own.
+            let angle = crate::geometry::angle_between(
+                &vectors[pair[0] as usize],
+                &vectors[pair[1] as usize],
+            );
+            let Some(f) = focal_for_angle(&self.off[p], &self.off[q], angle) else {
                 continue;
             };
             if f < f_lo || f > f_hi {

@@ -902,7 +902,7 @@ impl Solver {
     /// ```
     pub fn mag_pair_index(&self) -> &MagPairIndex {
         self.mag_pairs
-            .get_or_init(|| MagPairIndex::build(&self.pairs, &self.mag32))
+            .get_or_init(|| MagPairIndex::build(&self.pairs, self.catalog.vectors(), &self.mag32))
     }
 
     /// The tables of the source documents' methods (neighbours, line angles, angle sums, ring
@@ -1177,7 +1177,7 @@ impl Solver {
             .min(n);
         let mut scratch = SCRATCH.with(|c| c.take());
         scratch.angles.clear();
-        scratch.angles.resize(stride * stride, f64::NAN);
+        scratch.angles.resize(stride * stride, [f64::NAN; 3]);
         let mut search = Search::new(
             self,
             camera,
@@ -1216,7 +1216,7 @@ impl Solver {
                 if wide > search.stride {
                     search.stride = wide;
                     search.scratch.angles.clear();
-                    search.scratch.angles.resize(wide * wide, f64::NAN);
+                    search.scratch.angles.resize(wide * wide, [f64::NAN; 3]);
                 }
             }
             search.gate = if pass.gated { gate.as_deref() } else { None };
@@ -1911,9 +1911,10 @@ struct Scratch {
     fitted: Vec<Option<u32>>,
     /// Instrument minus catalogue magnitude of the matches, then their absolute deviations.
     mag_offsets: Vec<f64>,
-    /// Angles between the search stars (row-major with `Search::stride`, NaN until first
-    /// needed), kept across the passes: the observed directions do not change between them.
-    angles: Vec<f64>,
+    /// Angles between the search stars with their cosines and sines (`[t, cos t, sin t]`,
+    /// row-major with `Search::stride`, NaN until first needed), kept across the passes: the
+    /// observed directions do not change between them.
+    angles: Vec<[f64; 3]>,
     /// Sub-index ranges of each centroid pair of a gated pass, read once per pass.
     side_cache: SideCache,
     /// Centroids torn between two stars in the last matching pass.

@@ -11,6 +11,7 @@ use super::{
     STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
 };
 use crate::attitude::{triad, wahba_from};
+use crate::kvector::AngleWindow;
 
 impl Search<'_> {
     /// One pass: Pyramid search over the brightest `stars` centroids in `self.pairs` at
@@ -32,11 +33,12 @@ impl Search<'_> {
         stars: usize,
         sigma_px: f64,
         cap: usize,
-        angle: &mut [f64],
+        angle: &mut [[f64; 3]],
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let f = self.camera.focal_length_px;
         let sigma_rad = sigma_px / f;
         let eps = 3.0 * SQRT_2 * sigma_rad + 1e-7;
+        let eps_trig = [eps.cos(), eps.sin()];
         let r_confirm = 8.0 * sigma_rad + 2e-7;
         // Fourth stars needed to confirm a triangle: enough that chance alone (a centroid landing
         // within r_confirm of some star, at twice the mean sky density) is unlikely to supply them.
@@ -70,14 +72,18 @@ impl Search<'_> {
         let obs = self.obs[0];
         let order: &[usize] = self.order;
         let search = &order[..s];
-        // Angles are computed when a triangle first needs them (most frames stop after a few
-        // triangles, long before all s² pairs are visited).
-        let mut pair_angle = |a: usize, b: usize| -> f64 {
+        // Angles (with their cosine and sine, for the index's windows) are computed when a
+        // triangle first needs them (most frames stop after a few triangles, long before all s²
+        // pairs are visited).
+        let mut pair_angle = |a: usize, b: usize| -> [f64; 3] {
             let t = angle[a * stride + b];
-            if !t.is_nan() {
+            if !t[0].is_nan() {
                 return t;
             }
-            let t = crate::geometry::angle_between(&obs[search[a]], &obs[search[b]]);
+            let (u, v) = (&obs[search[a]], &obs[search[b]]);
+            let (sin, cos) = (u.cross(v).norm(), u.dot(v));
+            let norm = sin.hypot(cos);
+            let t = [sin.atan2(cos), cos / norm, sin / norm];
             angle[a * stride + b] = t;
             angle[b * stride + a] = t;
             t
@@ -90,7 +96,8 @@ impl Search<'_> {
             for dk in 1..s - dj {
                 for a in 0..s - dj - dk {
                     let (b, c) = (a + dj, a + dj + dk);
-                    let (t_ij, t_ik, t_jk) = (pair_angle(a, b), pair_angle(a, c), pair_angle(b, c));
+                    let sides = [pair_angle(a, b), pair_angle(a, c), pair_angle(b, c)];
+                    let (t_ij, t_ik, t_jk) = (sides[0][0], sides[1][0], sides[2][0]);
                     let (lo, hi) = (t_ij.min(t_ik).min(t_jk), t_ij.max(t_ik).max(t_jk));
                     if hi > max_angle || lo < 2.0 * eps {
                         continue;
@@ -133,11 +140,12 @@ impl Search<'_> {
                     }
                     tried += 1;
                     self.tri_pos = [a, b, c];
+                    let windows =
+                        sides.map(|t| AngleWindow::around(t[0], [t[1], t[2]], eps, eps_trig));
                     let found = match self.try_triangle(
                         [i, j, k],
-                        [t_ij, t_ik, t_jk],
+                        windows,
                         tp_obs,
-                        eps,
                         (r_confirm, confirmations),
                         sigma_rad,
                     ) {
@@ -174,28 +182,23 @@ impl Search<'_> {
         (v.false_prob <= self.config.max_false_match_prob).then_some(v)
     }
 
+    /// Every catalogue triangle whose sides fall in `windows` (the observed sides ± the
+    /// tolerance: i–j, i–k, j–k), tried as a hypothesis for centroids `i, j, k`.
     pub(super) fn try_triangle(
         &mut self,
         [i, j, k]: [usize; 3],
-        [t_ij, t_ik, t_jk]: [f64; 3],
+        windows: [AngleWindow; 3],
         tp_obs: f64,
-        eps: f64,
         (r_confirm, confirmations): (f64, usize),
         sigma_rad: f64,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut triangles = std::mem::take(&mut self.scratch.triangles);
         match self.gen_gate.or(self.gate).map(|g| [g[i], g[j], g[k]]) {
-            Some(windows) => {
+            Some(mags) => {
                 let mag_index = self.solver.mag_pair_index();
-                self.catalogue_triangles_gated(
-                    mag_index,
-                    [t_ij, t_ik, t_jk],
-                    eps,
-                    windows,
-                    &mut triangles,
-                );
+                self.catalogue_triangles_gated(mag_index, windows, mags, &mut triangles);
             }
-            None => self.catalogue_triangles(t_ij, t_ik, t_jk, eps, &mut triangles),
+            None => self.catalogue_triangles(windows, &mut triangles),
         }
         let cat = self.solver.catalog.vectors();
         let mut result = Ok(None);
@@ -255,22 +258,16 @@ impl Search<'_> {
         result
     }
 
-    /// Catalogue triangles `(a, b, c)` with `|a b| ≈ t_ij`, `|a c| ≈ t_ik`, `|b c| ≈ t_jk`.
+    /// Catalogue triangles `(a, b, c)` with `|a b|`, `|a c|` and `|b c|` in `windows`.
     pub(super) fn catalogue_triangles(
         &mut self,
-        t_ij: f64,
-        t_ik: f64,
-        t_jk: f64,
-        eps: f64,
+        windows: [AngleWindow; 3],
         out: &mut Vec<[u32; 3]>,
     ) {
         out.clear();
         let idx = self.pairs;
-        let (r_ij, r_ik, r_jk) = (
-            idx.range(t_ij - eps, t_ij + eps),
-            idx.range(t_ik - eps, t_ik + eps),
-            idx.range(t_jk - eps, t_jk + eps),
-        );
+        let cat = self.solver.catalog.vectors();
+        let [r_ij, r_ik, r_jk] = windows.map(|w| idx.range_exact(&w, cat));
         self.pairs_visited += r_ij.len() + r_ik.len() + r_jk.len();
         if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
             return;
@@ -279,7 +276,6 @@ impl Search<'_> {
         // list, and check the third side with one dot product against its cosine bounds: one
         // adjacency fill per triangle instead of two, and no list walk for the closing side.
         let n_cat = self.solver.catalog.len();
-        let cat = self.solver.catalog.vectors();
         // Sides as (range, vertex pair) with vertices 0 = i, 1 = j, 2 = k.
         let sides = [(r_ij, (0usize, 1usize)), (r_ik, (0, 2)), (r_jk, (1, 2))];
         let closing = (0..3)
@@ -299,8 +295,7 @@ impl Search<'_> {
         let shared = if w0 == l0 || w0 == l1 { w0 } else { w1 };
         let walk_other = if w0 == shared { w1 } else { w0 };
         let look_other = if l0 == shared { l1 } else { l0 };
-        let t_close = [t_ij, t_ik, t_jk][closing];
-        let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
+        let (cos_lo, cos_hi) = windows[closing].cosines();
         // Lists are needed only at the walked pairs' stars.
         self.scratch
             .adj_ik
@@ -333,8 +328,7 @@ impl Search<'_> {
         mag_index: &MagPairIndex,
         (pa, pb): (usize, usize),
         (wa, wb): ([f32; 2], [f32; 2]),
-        t: f64,
-        eps: f64,
+        window: &AngleWindow,
     ) -> std::ops::Range<usize> {
         let key = pa * self.stride + pb;
         let cache = &mut self.scratch.side_cache;
@@ -349,8 +343,9 @@ impl Search<'_> {
         };
         let start = cache.entries.len();
         let mut scanned = 0usize;
+        let cat = self.solver.catalog.vectors();
         mag_index.for_each_sub(mag_index.bins(wa), mag_index.bins(wb), |_, sub| {
-            let r = sub.range(t - eps, t + eps);
+            let r = sub.range_exact(window, cat);
             scanned += r.len();
             for [p, q] in sub.pairs(r) {
                 if fits(p, wa) && fits(q, wb) {
@@ -372,8 +367,7 @@ impl Search<'_> {
     pub(super) fn catalogue_triangles_gated(
         &mut self,
         mag_index: &MagPairIndex,
-        t: [f64; 3],
-        eps: f64,
+        sides: [AngleWindow; 3],
         windows: [[f32; 2]; 3],
         out: &mut Vec<[u32; 3]>,
     ) {
@@ -392,8 +386,7 @@ impl Search<'_> {
                 mag_index,
                 (pos[lo], pos[hi]),
                 (windows[lo], windows[hi]),
-                t[e],
-                eps,
+                &sides[e],
             );
             if ranges[e].is_empty() {
                 return;
@@ -417,8 +410,7 @@ impl Search<'_> {
         let shared = if w0 == l0 || w0 == l1 { w0 } else { w1 };
         let walk_other = if w0 == shared { w1 } else { w0 };
         let look_other = if l0 == shared { l1 } else { l0 };
-        let t_close = t[closing];
-        let (cos_hi, cos_lo) = ((t_close - eps).max(0.0).cos(), (t_close + eps).cos());
+        let (cos_lo, cos_hi) = sides[closing].cosines();
         let entries = &self.scratch.side_cache.entries;
         // Entry of a side as (star of its first vertex, star of its second vertex).
         let oriented = |e: usize, p: [u32; 2]| {

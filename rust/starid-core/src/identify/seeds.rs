@@ -40,6 +40,7 @@ use super::{Method, Search, SearchLimit, Status, Verified};
 use crate::attitude::wahba_svd;
 use crate::catalog::Catalog;
 use crate::geometry::angle_between;
+use crate::kvector::AngleWindow;
 
 /// Rings of the radial feature: P001's feature order `n`.
 pub const RING_ORDER: usize = 3;
@@ -457,8 +458,9 @@ impl Search<'_> {
         counts.resize(n_cat, 0);
         let mut stamp = vec![u32::MAX; n_cat];
         let idx = self.pairs;
+        let cat = self.solver.catalog.vectors();
         for (k, &(_, t)) in d.iter().enumerate() {
-            let range = idx.range(t - eps, t + eps);
+            let range = idx.range_exact(&AngleWindow::new(t - eps, t + eps), cat);
             self.pairs_visited += range.len();
             for [p, q] in idx.pairs(range) {
                 for s in [p, q] {

@@ -13,6 +13,7 @@ use std::f64::consts::SQRT_2;
 
 use super::{Search, SearchLimit, Status, Verified};
 use crate::attitude::{triad, wahba_from};
+use crate::kvector::AngleWindow;
 
 /// Candidates (best-voted centroids) whose triangles become hypotheses.
 const VOTE_CANDIDATES: usize = 24;
@@ -39,6 +40,7 @@ impl Search<'_> {
         let search: Vec<usize> = self.order[..s].to_vec();
         let obs = self.obs[0];
         let idx = self.pairs;
+        let cat = self.solver.catalog.vectors();
         let max_angle = idx.max_angle_rad() - eps;
         let mags = self.solver.mag_f32();
         let gate = self.gate;
@@ -67,7 +69,7 @@ impl Search<'_> {
                 if t > max_angle || t < 2.0 * eps {
                     continue;
                 }
-                let range = idx.range(t - eps, t + eps);
+                let range = idx.range_exact(&AngleWindow::new(t - eps, t + eps), cat);
                 self.pairs_visited += range.len();
                 for [p, q] in idx.pairs(range) {
                     if fits(p, i) && fits(q, j) {
