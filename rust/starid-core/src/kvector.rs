@@ -221,7 +221,15 @@ impl PairIndex {
             )));
         }
         let mut entries = neighbour_pairs(catalog, max_angle_rad, members);
-        entries.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let by_angle =
+            |a: &(f32, [u32; 2]), b: &(f32, [u32; 2])| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::slice::ParallelSliceMut;
+            entries.par_sort_unstable_by(by_angle);
+        }
+        #[cfg(not(feature = "parallel"))]
+        entries.sort_unstable_by(by_angle);
         let angles: Vec<f32> = entries.iter().map(|e| e.0).collect();
         let pairs = if catalog.len() <= NARROW_PAIR_STARS {
             // Indices below 65 536: the cast is exact.
