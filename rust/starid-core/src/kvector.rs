@@ -359,9 +359,11 @@ impl PairIndex {
         (a..b, sure)
     }
 
-    /// Positions of exactly the pairs with separation in `window` (to within the f64 rounding of
-    /// a dot product): [`PairIndex::range_parts`], its two end bins trimmed by binary search on
-    /// the separations of their pairs, recomputed from the catalogue's unit vectors `vectors`.
+    /// Positions of the pairs with separation in `window`: [`PairIndex::range_parts`], its two
+    /// end bins trimmed by binary search on the separations of their pairs, recomputed from the
+    /// catalogue's unit vectors `vectors` (dot products against the window's cosines). The bins
+    /// between are taken whole, which is exact to within the f32 rounding of the separations
+    /// they were counted from (10⁻⁷ rad).
     ///
     /// # Example
     /// ```
