@@ -1,4 +1,4 @@
-"""Index sizes and build times: every index the solver keeps, for the bundled and the
+"""Pair-index sizes and build times: every index the solver keeps, for the bundled and the
 contest catalogue at the contest cameras' geometries (the README's "Pair indexes" figures).
 
     python benches/bench_index.py [--repeat 3]
@@ -24,8 +24,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
     catalogs = [("bundled (Hipparcos Hp <= 6.5)", starid.Catalog.default()), ("contest (4908)", starid.Catalog.from_csv(CONTEST))]
-    print("| catalogue | frames | pairs + bright pairs | pair index | bright index | bright triangles | magnitude index | all | build (pairs, triangles) | build (magnitude) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| catalogue | frames | pairs + bright pairs | pair index | bright index | magnitude index | all | build (pairs) | build (magnitude) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     mb = 1e-6
     for name, cat in catalogs:
         blob = pickle.dumps(cat)
@@ -40,7 +40,6 @@ def main() -> None:
             print(
                 f"| {name} | {label} | {best['pairs']:,} + {best['bright_pairs']:,} | "
                 f"{best['pair_index_bytes'] * mb:.2f} MB | {best['bright_index_bytes'] * mb:.2f} MB | "
-                f"{best['bright_triangle_bytes'] * mb:.2f} MB | "
                 f"{best['magnitude_index_bytes'] * mb:.2f} MB | {best['memory_bytes'] * mb:.2f} MB | "
                 f"{best['build_time_s'] * 1e3:.0f} ms | {best['magnitude_index_build_time_s'] * 1e3:.0f} ms |"
             )

@@ -172,7 +172,7 @@ def test_pair_count_is_the_index_size(contest: starid.Catalog) -> None:
     want = int((np.triu(cos >= np.cos(np.radians(12.0)), k=1)).sum())
     assert abs(m["pairs"] - want) <= 2  # rounding at the boundary only
     # Two 16-bit star indices per pair (catalogues under 65 536 stars), plus the k-vector (a
-    # 32-bit count per sixteen pairs).
+    # 32-bit count per eight pairs).
     assert 4 * m["pairs"] < m["index_bytes"] <= 4.5 * m["pairs"] + 8
 
 

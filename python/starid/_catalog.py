@@ -298,9 +298,7 @@ class Catalog:
         Returns a dict with ``pairs`` (all pairs closer than the indexed angle), ``bright_pairs``
         (pairs among locally bright stars, searched first; 0 when there is no such index),
         ``max_angle_deg``, ``build_time_s`` (both pair indexes), and the memory of every index
-        the solver keeps: ``pair_index_bytes``, ``bright_index_bytes``, ``bright_triangle_bytes``
-        (the locally bright stars' triangles up to a square field's width, by their sides: the
-        bright pass looks its triangles of spots up there; 0 without a bright index),
+        the solver keeps: ``pair_index_bytes``, ``bright_index_bytes``,
         ``magnitude_index_bytes`` (the magnitude-split index a gated search builds on first
         use; 0 until then, or built now with ``magnitude_index=True``, taking
         ``magnitude_index_build_time_s``), ``seed_tables_bytes`` (the source documents'

@@ -8,14 +8,13 @@
 //!
 //! The separations themselves are not stored. A range answers with whole bins, so it may hold
 //! pairs up to one bin's width ([`PairIndex::slack_rad`]) outside `[lo, hi]`; at the bundled
-//! catalogue's 12° index that is 1.2″, a seventieth of a pixel, far inside any search's tolerance.
+//! catalogue's 12° index that is 0.6″, a hundredth of a pixel, far inside any search's tolerance.
 //! A caller that needs the exact set ([`PairIndex::range_parts`]) checks the pairs of the two end
 //! bins against the catalogue's vectors, which it holds anyway. Without the separations a pair
-//! costs its two star indices and a sixteenth of a k-vector word: 4.25 bytes for catalogues of at
-//! most 65 536 stars (16-bit indices), 8.25 beyond (it was 9 with an f32 separation and bins of
-//! four pairs), so that the pair index, the magnitude-split index and the bright stars' triangle
-//! index of the bundled catalogue fit in 8 MB together at 12°. A range trims its two end bins by
-//! binary search, four steps each.
+//! costs its two star indices and an eighth of a k-vector word: 4.5 bytes for catalogues of at
+//! most 65 536 stars (16-bit indices), 8.5 beyond (it was 9 with an f32 separation and bins of
+//! four pairs), so that the pair index and the magnitude-split index of the bundled catalogue
+//! fit in 8 MB together at 12°.
 
 use std::ops::Range;
 
@@ -25,7 +24,7 @@ use crate::catalog::Catalog;
 use crate::error::{Error, Result};
 
 /// Average number of pairs per k-vector bin.
-pub const PAIRS_PER_BIN: usize = 16;
+pub const PAIRS_PER_BIN: usize = 8;
 
 /// Allowance for the f32 rounding of the separations the bins were counted from, radians (an
 /// f32 holds a separation of 0.6 rad to 3.6·10⁻⁸ rad).

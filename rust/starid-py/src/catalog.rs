@@ -205,7 +205,6 @@ impl PyCatalog {
             s.bright_pair_index()
                 .map_or(0, starid_core::PairIndex::memory_bytes),
         )?;
-        d.set_item("bright_triangle_bytes", s.bright_triangle_bytes())?;
         d.set_item("magnitude_index_bytes", s.magnitude_index_bytes())?;
         d.set_item("seed_tables_bytes", s.seed_tables_bytes())?;
         d.set_item("magnitude_index_build_time_s", mag_build_s)?;

@@ -56,7 +56,6 @@ mod magbins;
 mod pyramid;
 pub mod scale;
 mod seeds;
-mod triangles;
 mod verify;
 mod voting;
 
@@ -692,8 +691,6 @@ pub struct Solver {
     pairs: PairIndex,
     /// Pairs among the locally bright stars; `None` when they are most of the catalogue.
     bright_pairs: Option<PairIndex>,
-    /// Triangles of `bright_pairs`' stars no wider than a square field, by their sides.
-    bright_triangles: Option<triangles::TriangleIndex>,
     /// Catalogue magnitudes as `f32`, for the magnitude gate of the search's inner loops.
     mag32: Vec<f32>,
     /// The same, ascending, with a bin table for counts below a magnitude.
@@ -757,11 +754,6 @@ impl Solver {
         } else {
             None
         };
-        // Sides up to a square field's width (the diagonal is max_angle_rad): the triangles of
-        // spots of most frames, in a fraction of the memory all triangles within the diagonal take.
-        let bright_triangles = bright_pairs
-            .as_ref()
-            .map(|b| triangles::TriangleIndex::build(b, catalog.vectors(), max_angle_rad / SQRT_2));
         let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
         let mag_sorted = SortedMags::new(&mag32);
         let min_density_sr = sparsest_density(&catalog, 0.5 * max_angle_rad);
@@ -772,7 +764,6 @@ impl Solver {
             catalog,
             pairs,
             bright_pairs,
-            bright_triangles,
             min_density_sr,
             density,
             mag32,
@@ -838,21 +829,6 @@ impl Solver {
         self.bright_pairs.as_ref()
     }
 
-    /// Memory of the bright stars' triangle index, bytes (0 without a bright pair index): the
-    /// bright pass's triangles of spots up to a square field's width are looked up there.
-    ///
-    /// # Example
-    /// ```
-    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
-    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
-    /// assert_eq!(solver.bright_pair_index().is_some(), solver.bright_triangle_bytes() > 0);
-    /// ```
-    pub fn bright_triangle_bytes(&self) -> usize {
-        self.bright_triangles
-            .as_ref()
-            .map_or(0, triangles::TriangleIndex::memory_bytes)
-    }
-
     /// Heap memory of the indexes in bytes: the pair indexes, the density map, and the
     /// magnitude-split index and the source documents' tables once built.
     ///
@@ -868,7 +844,6 @@ impl Solver {
                 .bright_pairs
                 .as_ref()
                 .map_or(0, PairIndex::memory_bytes)
-            + self.bright_triangle_bytes()
             + self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
             + self.seed_tables_bytes()
             + self.density.as_ref().map_or(0, DensityMap::memory_bytes)

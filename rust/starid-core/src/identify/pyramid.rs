@@ -272,16 +272,6 @@ impl Search<'_> {
         if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
             return;
         }
-        // The bright pass: the triangle index holds the answer for sides up to a square field's
-        // width (the same triangles, in its own order).
-        if let (Some(tri), Some(bright)) = (
-            self.solver.bright_triangles.as_ref(),
-            self.solver.bright_pairs.as_ref(),
-        ) {
-            if std::ptr::eq(idx, bright) && tri.find(&windows, cat, out) {
-                return;
-            }
-        }
         // Walk the sparser of the two sides at one vertex, look the other up through an adjacency
         // list, and check the third side with one dot product against its cosine bounds: one
         // adjacency fill per triangle instead of two, and no list walk for the closing side.
