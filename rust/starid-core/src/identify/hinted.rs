@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    brightness_order, validate_centroids, Identification, IdentifyConfig, Method, Search, Solver,
-    Status, SCRATCH,
+    brightness_order, take_scratch, validate_centroids, Identification, IdentifyConfig, Method,
+    Search, Solver, Status, SCRATCH,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
@@ -247,7 +247,7 @@ impl Solver {
             [&obs, &obs_mirrored],
             magnitudes,
             &order,
-            SCRATCH.with(|c| c.take()),
+            take_scratch(),
         );
         search.method = Method::Auto;
         if let Some(w) = windows.as_deref() {
@@ -403,7 +403,7 @@ impl Solver {
             }
         }
         let hypotheses = search.hypotheses;
-        SCRATCH.with(|c| c.replace(search.scratch));
+        SCRATCH.with(|c| c.set(Some(search.scratch)));
         let mut id = found.into_identification(hypotheses, Duration::ZERO);
         id.method = config.method;
         id.hinted = true;
