@@ -7,6 +7,7 @@
 //! coincidences, times the hypotheses tried. A tight hint can so name a frame of two or three
 //! stars; a wrong hint finds nothing it can verify, and the search falls back to lost in space.
 
+use std::cell::Cell;
 use std::f64::consts::PI;
 use std::time::{Duration, Instant};
 
@@ -36,6 +37,25 @@ pub const MAX_HINT_UNCERTAINTY_RAD: f64 = 20.0 * PI / 180.0;
 
 /// Most candidate stars kept per spot (the nearest to its predicted place).
 const HINT_MAX_CANDIDATES: usize = 24;
+
+/// The hinted search's own buffers, kept between calls on a thread (see [`HINT_BUFFERS`]).
+#[derive(Debug, Default)]
+struct HintBuffers {
+    /// Each spot's direction in the camera frame, as seen and mirrored.
+    obs: Vec<Vector3<f64>>,
+    obs_mirrored: Vec<Vector3<f64>>,
+    /// Each spot's catalogue-magnitude window (magnitude-gated calls).
+    windows: Vec<[f32; 2]>,
+    /// The candidate stars of the spots looked up, and each spot's range of them.
+    cand: Vec<u32>,
+    near: Vec<(f64, u32)>,
+    ranges: Vec<Option<(u32, u32)>>,
+}
+
+thread_local! {
+    /// Boxed, as the search's scratch: a call takes and returns a pointer.
+    static HINT_BUFFERS: Cell<Option<Box<HintBuffers>>> = const { Cell::new(None) };
+}
 
 /// A prior attitude for [`Solver::identify_hinted`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -197,19 +217,31 @@ impl Solver {
         hint: &AttitudeHint,
     ) -> Option<Identification> {
         let n = centroids.len();
-        let obs: Vec<Vector3<f64>> = centroids
-            .iter()
-            .map(|c| camera.pixel_to_cam(c[0], c[1], false))
-            .collect();
-        // The mirrored directions only when that handedness is searched.
-        let obs_mirrored: Vec<Vector3<f64>> = if hint.mirrored == Some(false) {
-            Vec::new()
-        } else {
+        // This thread's buffers from the last call: a tracking call allocates only its answer.
+        let mut bufs = HINT_BUFFERS.with(Cell::take).unwrap_or_default();
+        let HintBuffers {
+            obs,
+            obs_mirrored,
+            windows,
+            cand,
+            near,
+            ranges,
+        } = &mut *bufs;
+        obs.clear();
+        obs.extend(
             centroids
                 .iter()
-                .map(|c| camera.pixel_to_cam(c[0], c[1], true))
-                .collect()
-        };
+                .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
+        );
+        // The mirrored directions only when that handedness is searched.
+        obs_mirrored.clear();
+        if hint.mirrored != Some(false) {
+            obs_mirrored.extend(
+                centroids
+                    .iter()
+                    .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
+            );
+        }
         let order = brightness_order(n, magnitudes);
         let handedness: &[bool] = match hint.mirrored {
             Some(false) => &[false],
@@ -225,16 +257,20 @@ impl Solver {
         };
         // With calibrated magnitudes a centroid matches only stars its brightness allows (as
         // lost in space's gated passes do), and the bound counts only those.
-        let windows: Option<Vec<[f32; 2]>> = self.magnitudes_fit(magnitudes, config).then(|| {
+        windows.clear();
+        let gated = self.magnitudes_fit(magnitudes, config);
+        if gated {
             let (m, off, tol) = (
                 magnitudes.unwrap_or_default(),
                 config.mag_offset.unwrap_or(0.0),
                 config.mag_tolerance,
             );
-            m.iter()
-                .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32])
-                .collect()
-        });
+            windows.extend(
+                m.iter()
+                    .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32]),
+            );
+        }
+        let windows: Option<&[[f32; 2]]> = gated.then_some(&windows[..]);
         // Tracking names frames of two or three stars when the bound allows.
         let cfg = IdentifyConfig {
             min_matches: 2,
@@ -244,13 +280,13 @@ impl Solver {
             self,
             camera,
             &cfg,
-            [&obs, &obs_mirrored],
+            [&obs[..], &obs_mirrored[..]],
             magnitudes,
             &order,
             take_scratch(),
         );
         search.method = Method::Auto;
-        if let Some(w) = windows.as_deref() {
+        if let Some(w) = windows {
             search.gate = Some(w);
             search.gate_fraction = self.window_fraction(w);
         }
@@ -292,16 +328,14 @@ impl Solver {
                 let reach_r = Radius::new(reach);
                 // Each spot's candidates (the catalogue stars within reach of its predicted place,
                 // nearest first), looked up when a pair first needs them: `cand[ranges[s]]`.
-                let (mut cand, mut near): (Vec<u32>, Vec<(f64, u32)>) = (Vec::new(), Vec::new());
-                let mut ranges: Vec<Option<(u32, u32)>> = vec![None; k];
+                cand.clear();
+                ranges.clear();
+                ranges.resize(k, None);
                 let mut lookup = |s: usize, cand: &mut Vec<u32>| -> (u32, u32) {
                     let w = h.inverse_transform_vector(&o[s]);
                     near.clear();
-                    let allowed = |star: u32| {
-                        windows
-                            .as_deref()
-                            .is_none_or(|g| mags32[star as usize] <= g[s][1])
-                    };
+                    let allowed =
+                        |star: u32| windows.is_none_or(|g| mags32[star as usize] <= g[s][1]);
                     catalog.for_each_near(&w, reach_r, |star, cos, _| {
                         if allowed(star) {
                             near.push((-cos, star));
@@ -334,7 +368,7 @@ impl Solver {
                         ((theta + tol).min(PI).cos(), (theta - tol).max(0.0).cos());
                     for idx in [i, j] {
                         if ranges[idx].is_none() {
-                            ranges[idx] = Some(lookup(top[idx], &mut cand));
+                            ranges[idx] = Some(lookup(top[idx], cand));
                         }
                     }
                     let span = |idx: usize| {
@@ -381,7 +415,11 @@ impl Solver {
         // A tight step can verify with the stars its radius reaches while noisier ones (a smeared
         // frame) stay out: while spots are left, the looser steps re-verify from the solution,
         // and the one that names more stars (within the bound) wins.
-        let mut found = found?;
+        let Some(mut found) = found else {
+            SCRATCH.with(|c| c.set(Some(search.scratch)));
+            HINT_BUFFERS.with(|c| c.set(Some(bufs)));
+            return None;
+        };
         let mut step_sigma = ladder[found_step];
         for &sigma_px in ladder.iter().skip(found_step + 1) {
             // Only when spots are left and the residuals say the noise reaches the step's.
@@ -404,6 +442,7 @@ impl Solver {
         }
         let hypotheses = search.hypotheses;
         SCRATCH.with(|c| c.set(Some(search.scratch)));
+        HINT_BUFFERS.with(|c| c.set(Some(bufs)));
         let mut id = found.into_identification(hypotheses, Duration::ZERO);
         id.method = config.method;
         id.hinted = true;
