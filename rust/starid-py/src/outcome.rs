@@ -1,6 +1,8 @@
 //! Core results → Python: the native `Identification` class, and dicts of plain values and numpy
 //! arrays (moved, not copied) for simulated frames and pointing fits.
 
+use std::sync::OnceLock;
+
 use nalgebra::Rotation3;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
@@ -134,6 +136,8 @@ pub struct PyIdentification {
     k1: f64,
     ids_array: PyOnceLock<Py<PyArray1<i64>>>,
     residuals_array: PyOnceLock<Py<PyArray1<f64>>>,
+    /// `(ra, dec, roll)` in degrees, computed on the first read of any of them.
+    radec_roll: OnceLock<(f64, f64, f64)>,
 }
 
 impl PyIdentification {
@@ -195,16 +199,19 @@ impl PyIdentification {
             k1: camera.k1,
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
+            radec_roll: OnceLock::new(),
         }
     }
 
     fn radec_roll_deg(&self) -> (f64, f64, f64) {
-        self.rotation
-            .as_ref()
-            .map_or((f64::NAN, f64::NAN, f64::NAN), |r| {
-                let (ra, dec, roll) = geometry::radec_roll_from_attitude(r);
-                (ra.to_degrees(), dec.to_degrees(), roll.to_degrees())
-            })
+        *self.radec_roll.get_or_init(|| {
+            self.rotation
+                .as_ref()
+                .map_or((f64::NAN, f64::NAN, f64::NAN), |r| {
+                    let (ra, dec, roll) = geometry::radec_roll_from_attitude(r);
+                    (ra.to_degrees(), dec.to_degrees(), roll.to_degrees())
+                })
+        })
     }
 }
 
@@ -472,6 +479,7 @@ impl PyIdentification {
             k1,
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
+            radec_roll: OnceLock::new(),
         })
     }
 
