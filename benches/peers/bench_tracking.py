@@ -92,6 +92,10 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=1000)
     ap.add_argument("--offset-deg", type=float, default=1.0)
     ap.add_argument("--rounds", type=int, default=1, help="time every call this many times, keep each frame's fastest")
+    ap.add_argument("--calls", type=int, default=0,
+                    help="only make this many calls of the solvers named by --only, cycling over the frames, "
+                         "untimed (for callgrind: benches/peers/callgrind_tracking.sh)")
+    ap.add_argument("--only", default="", help="with --calls: the solvers whose name contains this")
     args = ap.parse_args()
     cat = starid.Catalog.default()
     rng = np.random.default_rng(1)
@@ -155,6 +159,12 @@ def main() -> None:
         solvers.append(("tetra3rs tracking", t3))
     except ImportError:
         print("tetra3rs not installed: its row is left out (bash benches/peers/run.sh makes .venv-peers)")
+    if args.calls:
+        chosen = [solve for name, solve in solvers if args.only in name]
+        for k in range(args.calls):
+            for solve in chosen:
+                solve(fr[k % len(fr)])
+        return
     rows = _run_all(solvers, fr, args.rounds)
     lis = rows[0]["median_us"]
     t3row = next((r for r in rows if r["name"].startswith("tetra3rs")), None)

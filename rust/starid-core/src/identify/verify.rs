@@ -90,6 +90,8 @@ impl Search<'_> {
             }
             s.fitted.clear();
             s.fitted.extend(s.matches.iter().map(|m| m.map(|(c, _)| c)));
+            self.collect_matched(obs);
+            let s = &mut self.scratch;
             let (o_m, r_m) = (&s.obs_matched, &s.ref_matched);
             r = wahba_from(o_m, r_m, &r)?;
             let sum_sq: f64 = o_m
@@ -135,13 +137,17 @@ impl Search<'_> {
             for _ in 0..2 {
                 let wide = self.match_all(&r, obs, REGROW_FACTOR * radius, REGROW_FACTOR * sigma);
                 let Some(r2) = (wide >= 3)
-                    .then(|| wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r))
+                    .then(|| {
+                        self.collect_matched(obs);
+                        wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)
+                    })
                     .flatten()
                 else {
                     break;
                 };
                 let m2 = self.match_all(&r2, obs, radius, sigma);
                 let r3 = if m2 >= 3 {
+                    self.collect_matched(obs);
                     wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r2)
                         .unwrap_or(r2)
                 } else {
@@ -215,7 +221,9 @@ impl Search<'_> {
     }
 
     /// Nearest-star match of every centroid under `r`, each catalogue star claimed at most once.
-    /// Fills `scratch.matches` (per centroid) and the matched vector lists; returns the count.
+    /// Fills `scratch.matches` (per centroid); returns the count. A refit first fills the matched
+    /// vector lists ([`Self::collect_matched`]): most passes end in none (the last pass of a
+    /// verification confirms its matches, and a failed one ends it).
     pub(super) fn match_all(
         &mut self,
         r: &Rotation3<f64>,
@@ -363,7 +371,7 @@ impl Search<'_> {
         // A catalogue star claimed by two centroids is ambiguous: neither gets it.
         s.claims
             .unmatch_shared(&s.claim, &mut s.matches, catalog.len());
-        self.collect_matched(obs)
+        s.matches.iter().filter(|m| m.is_some()).count()
     }
 
     /// Fill the matched vector lists from `scratch.matches`; returns their length.
