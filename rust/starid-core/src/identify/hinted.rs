@@ -140,6 +140,10 @@ impl Solver {
     /// [`Solver::identify`] (`hinted: false`). Frames of two or three stars can be named when
     /// the hint is tight enough for the bound; lost in space needs four.
     ///
+    /// The search keeps lost in space's limits: `max_pairs_visited` (each verification counts a
+    /// look-up per spot) ends it with [`Status::SearchLimit`], after which the fallback still
+    /// runs, and `timeout` covers the whole call, fallback included ([`Status::Timeout`]).
+    ///
     /// # Errors
     /// As [`Solver::identify`]; `InvalidInput` for an uncertainty outside (0, 20°] or a
     /// non-finite hint.
@@ -182,24 +186,35 @@ impl Solver {
         hint.check()?;
         validate_centroids(centroids, magnitudes, camera)?;
         let n = centroids.len();
-        if n >= 2 {
-            if let Some(mut id) = self.search_hinted(centroids, magnitudes, camera, config, hint) {
-                id.elapsed = start.elapsed();
-                return Ok(id);
+        let deadline = config.timeout.map(|t| start + t);
+        let status = if n >= 2 {
+            match self.search_hinted(centroids, magnitudes, camera, config, hint, deadline) {
+                Ok(mut id) => {
+                    id.elapsed = start.elapsed();
+                    return Ok(id);
+                }
+                Err(status) => status,
             }
-        }
+        } else {
+            Status::TooFewStars
+        };
         match fallback {
-            HintFallback::LostInSpace => {
-                let mut id = self.identify(centroids, magnitudes, camera, config)?;
+            // The call's time limit holds for the hinted search and the fallback together.
+            HintFallback::LostInSpace if status != Status::Timeout => {
+                let mut id = match config.timeout {
+                    Some(t) => {
+                        let rest = IdentifyConfig {
+                            timeout: Some(t.saturating_sub(start.elapsed())),
+                            ..config.clone()
+                        };
+                        self.identify(centroids, magnitudes, camera, &rest)?
+                    }
+                    None => self.identify(centroids, magnitudes, camera, config)?,
+                };
                 id.elapsed = start.elapsed();
                 Ok(id)
             }
-            HintFallback::None => {
-                let status = if n < 2 {
-                    Status::TooFewStars
-                } else {
-                    Status::NoMatch
-                };
+            _ => {
                 let mut id = Identification::unidentified(status, n, 0, start.elapsed());
                 id.method = config.method;
                 id.hinted = true;
@@ -215,7 +230,8 @@ impl Solver {
         camera: &Camera,
         config: &IdentifyConfig,
         hint: &AttitudeHint,
-    ) -> Option<Identification> {
+        deadline: Option<Instant>,
+    ) -> std::result::Result<Identification, Status> {
         let n = centroids.len();
         // This thread's buffers from the last call: a tracking call allocates only its answer.
         let mut bufs = HINT_BUFFERS.with(Cell::take).unwrap_or_default();
@@ -286,6 +302,7 @@ impl Solver {
             take_scratch(),
         );
         search.method = Method::Auto;
+        search.deadline = deadline;
         if let Some(w) = windows {
             search.gate = Some(w);
             search.gate_fraction = self.window_fraction(w);
@@ -297,6 +314,9 @@ impl Solver {
         let catalog = &*self.catalog;
         let cat = catalog.vectors();
         let mut found = None;
+        // Set when the work budget or the time runs out (a frame of thousands of spots, a wide
+        // hint): the search ends there, as lost in space's does.
+        let mut limit = None;
         let density = search.field_density(&hint.r_icrs_to_cam, false);
         let mut found_step = 0;
         'passes: for (step, &sigma_px) in ladder.iter().enumerate() {
@@ -382,6 +402,7 @@ impl Solver {
                     // A spot pair is one trial: the bound's chance of a coincidence is per pair
                     // of spots (all their candidate pairs together), times the pairs examined.
                     search.hypotheses += 1;
+                    search.pairs_visited += ci.len() * cj.len();
                     for &a in ci {
                         for &b in cj {
                             if a == b {
@@ -397,6 +418,11 @@ impl Solver {
                             };
                             if !within(&r) {
                                 continue;
+                            }
+                            // Each verification looks every spot up: the work the budget counts.
+                            if let Some(why) = search.spent() {
+                                limit = Some(why);
+                                break 'passes;
                             }
                             let v = search.verify(r, mirrored, r_confirm, sigma_rad);
                             if let Some(v) = search.accept(v) {
@@ -418,7 +444,7 @@ impl Solver {
         let Some(mut found) = found else {
             SCRATCH.with(|c| c.set(Some(search.scratch)));
             HINT_BUFFERS.with(|c| c.set(Some(bufs)));
-            return None;
+            return Err(limit.unwrap_or(Status::NoMatch));
         };
         let mut step_sigma = ladder[found_step];
         for &sigma_px in ladder.iter().skip(found_step + 1) {
@@ -446,6 +472,6 @@ impl Solver {
         let mut id = found.into_identification(hypotheses, Duration::ZERO);
         id.method = config.method;
         id.hinted = true;
-        Some(id)
+        Ok(id)
     }
 }

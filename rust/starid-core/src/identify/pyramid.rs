@@ -125,15 +125,7 @@ impl Search<'_> {
                         // This pass's own budget is spent; the search goes on with the next.
                         return Ok(self.accept(best));
                     }
-                    let why =
-                        if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
-                            Some(Status::SearchLimit)
-                        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
-                            Some(Status::Timeout)
-                        } else {
-                            None
-                        };
-                    if let Some(why) = why {
+                    if let Some(why) = self.spent() {
                         return self
                             .accept(best)
                             .map_or(Err(SearchLimit(why)), |v| Ok(Some(v)));
@@ -170,6 +162,18 @@ impl Search<'_> {
             }
         }
         Ok(self.accept(best))
+    }
+
+    /// Whether the search must end: its work budget (`max_pairs_visited`, gated passes'
+    /// work aside) is spent, or its time is up.
+    pub(super) fn spent(&self) -> Option<Status> {
+        if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
+            Some(Status::SearchLimit)
+        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(Status::Timeout)
+        } else {
+            None
+        }
     }
 
     /// The solution, if its bound over every hypothesis tested so far passes.

@@ -238,3 +238,47 @@ fn a_tracker_keeps_the_distortion_its_first_solution_found() {
     // Measured: 677 -> 826 stars named.
     assert!(named > named_fixed + 75, "{named_fixed} -> {named}");
 }
+
+/// A hinted search over thousands of spots ends at the work budget or the time limit, as lost
+/// in space does: a status, not a search that runs for seconds. Without fallback the status says
+/// which limit; a timeout is not followed by lost in space (the limit covers the whole call).
+#[test]
+fn a_hinted_search_ends_at_its_budget_and_its_time_limit() {
+    use nalgebra::Rotation3;
+    use rand::{Rng, SeedableRng};
+    use starid_core::{AttitudeHint, HintFallback, Status};
+    use std::time::{Duration, Instant};
+    let cam = camera_12();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+    let spots: Vec<[f64; 2]> = (0..3000)
+        .map(|_| [rng.random_range(0.0..512.0), rng.random_range(0.0..512.0)])
+        .collect();
+    let hint = AttitudeHint {
+        r_icrs_to_cam: Rotation3::identity(),
+        uncertainty_rad: 5f64.to_radians(),
+        mirrored: None,
+    };
+    let budget = IdentifyConfig {
+        max_pairs_visited: 200_000,
+        ..IdentifyConfig::default()
+    };
+    let id = solver_12()
+        .identify_hinted(&spots, None, &cam, &budget, &hint, HintFallback::None)
+        .unwrap();
+    assert_eq!(id.status, Status::SearchLimit);
+    assert!(id.hinted && !id.is_identified());
+    let timed = IdentifyConfig {
+        timeout: Some(Duration::from_millis(20)),
+        ..IdentifyConfig::default()
+    };
+    for fallback in [HintFallback::None, HintFallback::LostInSpace] {
+        let t = Instant::now();
+        let id = solver_12()
+            .identify_hinted(&spots, None, &cam, &timed, &hint, fallback)
+            .unwrap();
+        assert_eq!(id.status, Status::Timeout, "{fallback:?}");
+        assert!(id.hinted);
+        // Well within a second: the search looks at the clock before each verification.
+        assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+    }
+}
