@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    brightness_order, take_scratch, validate_centroids, Identification, IdentifyConfig, Method,
-    Search, Solver, Status, SCRATCH,
+    brightness_order, return_scratch, take_scratch, validate_centroids, Identification,
+    IdentifyConfig, Method, Search, Solver, Status,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
@@ -442,7 +442,7 @@ impl Solver {
         // frame) stay out: while spots are left, the looser steps re-verify from the solution,
         // and the one that names more stars (within the bound) wins.
         let Some(mut found) = found else {
-            SCRATCH.with(|c| c.set(Some(search.scratch)));
+            return_scratch(search.scratch);
             HINT_BUFFERS.with(|c| c.set(Some(bufs)));
             return Err(limit.unwrap_or(Status::NoMatch));
         };
@@ -467,7 +467,7 @@ impl Solver {
             }
         }
         let hypotheses = search.hypotheses;
-        SCRATCH.with(|c| c.set(Some(search.scratch)));
+        return_scratch(search.scratch);
         HINT_BUFFERS.with(|c| c.set(Some(bufs)));
         let mut id = found.into_identification(hypotheses, Duration::ZERO);
         id.method = config.method;

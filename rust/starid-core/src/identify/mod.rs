@@ -1265,7 +1265,7 @@ impl Solver {
                 Ok(Some(v)) => {
                     let hypotheses = search.hypotheses;
                     let method = search.method;
-                    SCRATCH.with(|c| c.set(Some(search.scratch)));
+                    return_scratch(search.scratch);
                     let mut id = v.into_identification(hypotheses, start.elapsed());
                     id.method = method;
                     return Ok(id);
@@ -1284,7 +1284,7 @@ impl Solver {
             }
         }
         let hypotheses = search.hypotheses;
-        SCRATCH.with(|c| c.set(Some(search.scratch)));
+        return_scratch(search.scratch);
         let mut id = Identification::unidentified(status, n, hypotheses, start.elapsed());
         id.method = config.method;
         Ok(id)
@@ -1811,6 +1811,11 @@ pub(crate) fn validate_centroids(
 /// thread holds them).
 fn take_scratch() -> Box<Scratch> {
     SCRATCH.with(std::cell::Cell::take).unwrap_or_default()
+}
+
+/// Hand the scratch buffers back to this thread for its next call.
+fn return_scratch(scratch: Box<Scratch>) {
+    SCRATCH.with(|c| c.set(Some(scratch)));
 }
 
 thread_local! {
