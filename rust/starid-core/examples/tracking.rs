@@ -355,6 +355,42 @@ fn main() {
                     if a.is_some() && a != b {
                         let star = a.unwrap() as usize;
                         let imaged = f.frame.catalog_index.contains(&Some(star as u32));
+                        let r = id.r_icrs_to_cam.expect("identified");
+                        let pv = cam
+                            .cam_to_pixel(&(r * catalog.vectors()[star]))
+                            .map(|(x, y)| {
+                                if id.mirrored {
+                                    (cam.width_px - x, y)
+                                } else {
+                                    (x, y)
+                                }
+                            });
+                        let [sx, sy] = f.frame.centroids[o];
+                        let tv =
+                            cam.cam_to_pixel(&(f.frame.r_icrs_to_cam * catalog.vectors()[star]));
+                        println!("    spot at ({sx:.1}, {sy:.1}) px; the star where the solution puts it {pv:?}, where it truly is {tv:?}");
+                        if let Some(q) = f
+                            .frame
+                            .catalog_index
+                            .iter()
+                            .position(|c| *c == Some(star as u32))
+                        {
+                            println!(
+                                "    the star's own spot {q} at {:?} named {:?}, residual {:.1}\"",
+                                f.frame.centroids[q],
+                                id.catalog_index[q],
+                                id.residuals_rad[q].to_degrees() * 3600.0
+                            );
+                        }
+                        if let Some(t) = b {
+                            let tp = cam.cam_to_pixel(
+                                &(f.frame.r_icrs_to_cam * catalog.vectors()[*t as usize]),
+                            );
+                            println!(
+                                "    this spot's star {t} truly at {tp:?}, mag {:.2}",
+                                catalog.mag()[*t as usize]
+                            );
+                        }
                         println!("  wrong: frame {i} mode {:?} spot {o} truth {:?} got {star} (mag {:.2}, imaged elsewhere {imaged}) spot mag {:.2} residual {:.1}\" matched {} of {} spots radius {:.1}\"", step.mode, b, catalog.mag()[star], f.frame.magnitudes[o], id.residuals_rad[o].to_degrees()*3600.0, id.matched, f.frame.centroids.len(), id.match_radius_rad.to_degrees()*3600.0);
                     }
                 }

@@ -30,12 +30,6 @@ impl Radius {
         Self { rad, cos, sin }
     }
 
-    /// The radius, radians.
-    #[inline]
-    pub fn rad(&self) -> f64 {
-        self.rad
-    }
-
     /// Its cosine.
     #[inline]
     pub fn cos(&self) -> f64 {

@@ -234,13 +234,17 @@ impl Search<'_> {
         let catalog = &*self.solver.catalog;
         let mags = self.solver.mag_f32();
         let gate = self.gate;
+        let decisive = 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad;
+        // Held stars reach as far as a rival centroid may lie and still contest a claim (see
+        // `Claims::unmatch_contested`).
+        let contest_rad = (radius * radius + decisive).sqrt();
         let radius = Radius::new(radius);
         self.pairs_visited += LOOKUP_WORK * obs.len();
         let s = &mut self.scratch;
         s.matches.clear();
         s.claim.clear();
         s.ambiguous.clear();
-        s.near.ensure(catalog, r, obs, radius.rad());
+        s.near.ensure(catalog, r, obs, contest_rad);
         for o in 0..obs.len() {
             let two = s.near.nearest_two(o, radius);
             // In a gated pass a centroid may not be far brighter than its star (one-sided, as
@@ -286,7 +290,6 @@ impl Search<'_> {
                 (m[o as usize] - off - f64::from(mags[star as usize])).abs() <= tol
             };
             let cat = catalog.vectors();
-            let decisive = 2.0 * AMBIGUITY_LOG_ODDS * sigma_rad * sigma_rad;
             // A few torn centroids (the usual frame) look their owners up in the claims as they
             // stand; many, in the claims sorted by star.
             let sorted = s.ambiguous.len() > OWNER_SCAN_MAX_AMBIGUOUS;
@@ -371,6 +374,9 @@ impl Search<'_> {
         // A catalogue star claimed by two centroids is ambiguous: neither gets it.
         s.claims
             .unmatch_shared(&s.claim, &mut s.matches, catalog.len());
+        let allowed = |o: usize, star: u32| gate.is_none_or(|g| mags[star as usize] <= g[o][1]);
+        s.claims
+            .unmatch_contested(&s.near, &mut s.matches, radius, decisive, allowed);
         s.matches.iter().filter(|m| m.is_some()).count()
     }
 
@@ -764,6 +770,8 @@ pub(super) struct Claims {
     pass: u32,
     /// Per catalogue star: the pass that last claimed it, and the centroid.
     stamp: Vec<(u32, u32)>,
+    /// The centroids `unmatch_contested` unmatches.
+    contested: Vec<u32>,
 }
 
 impl Claims {
@@ -789,6 +797,63 @@ impl Claims {
             } else {
                 *slot = (self.pass, o);
             }
+        }
+    }
+}
+
+impl Claims {
+    /// After [`Self::unmatch_shared`]: unmatch every centroid whose star a centroid with no star
+    /// within the radius is nearly as likely to be, by the star-side test of [`nearest_match`]
+    /// turned round: its squared distance to the star exceeds the claimant's by less than
+    /// `decisive`. Smear can carry a star's own spot just past the radius while a false spot
+    /// lies just inside; the nearer of two such spots is no evidence of which is the star.
+    /// (A centroid torn between two stars does not contest: a double's two spots would unname
+    /// each other.) `allowed(o, star)`: whether centroid `o` may be `star` (the magnitude gate).
+    /// The near cache must hold the stars within `√(radius² + decisive)`.
+    fn unmatch_contested(
+        &mut self,
+        near: &NearCache,
+        matches: &mut [Option<(u32, f64)>],
+        radius: Radius,
+        decisive: f64,
+        allowed: impl Fn(usize, u32) -> bool,
+    ) {
+        self.contested.clear();
+        for (b, m) in matches.iter().enumerate() {
+            if m.is_some() {
+                continue;
+            }
+            let w = &near.w[b];
+            let (lo, hi) = (near.start[b] as usize, near.start[b + 1] as usize);
+            let held = &near.stars[lo..hi];
+            // Only a centroid with no star it may be within the radius: one torn between two
+            // stars or sharing one is settled by the joint assignment or not at all.
+            if held
+                .iter()
+                .any(|(star, v)| v.dot(w) >= radius.cos() && allowed(b, *star))
+            {
+                continue;
+            }
+            for (star, v) in held {
+                let Some(&(pass, a)) = self.stamp.get(*star as usize) else {
+                    continue;
+                };
+                if pass != self.pass {
+                    continue;
+                }
+                let Some((claimed, d_a)) = matches[a as usize] else {
+                    continue;
+                };
+                if claimed == *star
+                    && w.cross(v).norm_squared() - d_a * d_a < decisive
+                    && allowed(b, *star)
+                {
+                    self.contested.push(a);
+                }
+            }
+        }
+        for &a in &self.contested {
+            matches[a as usize] = None;
         }
     }
 }

@@ -282,3 +282,88 @@ fn a_hinted_search_ends_at_its_budget_and_its_time_limit() {
         assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
     }
 }
+
+#[test]
+fn a_false_spot_just_nearer_a_star_than_its_smeared_spot_does_not_take_its_name() {
+    // Smear can carry a star's own spot just past the match radius while a false spot lies just
+    // inside it: the nearer is no evidence of which one is the star, so neither is named.
+    let (cam, solver) = (camera_12(), solver_12());
+    let cfg = IdentifyConfig::default();
+    let mut tried = 0;
+    for seed in 0..40u64 {
+        let f = starid_core::simulate(
+            &bundled(),
+            &cam,
+            &SimConfig {
+                mag_limit: Some(6.0),
+                noise_px: 0.2,
+                mag_noise: 0.05,
+                ..Default::default()
+            },
+            seed,
+        )
+        .unwrap();
+        if f.real_stars() < 20 {
+            continue;
+        }
+        let hint = starid_core::AttitudeHint {
+            r_icrs_to_cam: f.r_icrs_to_cam,
+            uncertainty_rad: 0.1f64.to_radians(),
+            mirrored: Some(f.mirrored),
+        };
+        let hinted = |fr: &SimFrame| {
+            solver
+                .identify_hinted(
+                    &fr.centroids,
+                    Some(&fr.magnitudes),
+                    &cam,
+                    &cfg,
+                    &hint,
+                    starid_core::HintFallback::None,
+                )
+                .unwrap()
+        };
+        let clean = hinted(&f);
+        assert!(clean.is_identified(), "seed {seed}");
+        let radius_px = clean.match_radius_rad * cam.focal_length_px;
+        // A named star well inside the sensor, with no other spot within 4 radii.
+        let Some((o, star)) = clean
+            .catalog_index
+            .iter()
+            .enumerate()
+            .filter_map(|(o, s)| s.map(|s| (o, s)))
+            .find(|&(o, _)| {
+                let [x, y] = f.centroids[o];
+                (40.0..472.0).contains(&x)
+                    && (40.0..472.0).contains(&y)
+                    && f.centroids
+                        .iter()
+                        .enumerate()
+                        .all(|(k, [u, v])| k == o || (u - x).hypot(v - y) > 4.0 * radius_px)
+            })
+        else {
+            continue;
+        };
+        let [x, y] = pixel_of(&f, star, &cam).unwrap();
+        let mut frame = f.clone();
+        // Its spot 1.01 radii off to one side; a false spot of its brightness 0.99 radii off
+        // to the other (the false spot pulls the fit its way by about a twentieth of that).
+        frame.centroids[o] = [x + 1.01 * radius_px, y];
+        frame.centroids.push([x - 0.99 * radius_px, y]);
+        frame.magnitudes.push(frame.magnitudes[o]);
+        frame.catalog_index.push(None);
+        let id = hinted(&frame);
+        assert!(id.is_identified(), "seed {seed}");
+        assert_eq!(
+            id.catalog_index[frame.centroids.len() - 1],
+            None,
+            "seed {seed}: the false spot is named {star}"
+        );
+        assert!(id.catalog_index[o].is_none() || id.catalog_index[o] == Some(star));
+        tried += 1;
+        if tried == 5 {
+            return;
+        }
+    }
+    panic!("only {tried} frames had a lone star to displace");
+}
