@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -160,8 +161,9 @@ def test_counts_out_of_range_are_typed_errors() -> None:
 
 def test_confirm_new_stars_keeps_a_one_frame_coincidence_unnamed() -> None:
     """A spot placed on a catalogue star too faint to be imaged, in one frame only: named with
-    the default tracker, left unnamed with confirm_new_stars (the star was inside the last
-    frame's field and unnamed there); stars named in consecutive frames keep their names."""
+    neither rule, left unnamed with confirm_new_stars (the star was inside the last frame's field
+    and unnamed there) and with the default (no solution named it since it came inside); stars
+    named in consecutive frames keep their names."""
     cat = starid.Catalog.default()
     seq = starid.simulate_sequence(cat, frames=6, rate_deg_s=0.2, mag_limit=5.8, noise_px=0.1, seed=7)
     last = seq[-1]
@@ -179,9 +181,16 @@ def test_confirm_new_stars_keeps_a_one_frame_coincidence_unnamed() -> None:
     star = int(cat.ids[faint[front][inside][0]])
     spot = px[inside][0]
     xy_last = np.vstack([last.xy, spot])
-    for confirm, expect_named in ((False, True), (True, False)):
-        # Five frames before: too few for confirm_unseen_frames (10) to hold the star.
-        tracker = starid.Tracker(cat, camera=cam, confirm_new_stars=confirm)
+    cases: list[tuple[dict[str, Any], bool]] = [
+        # Neither rule: the coincidence is named.
+        ({"confirm_unseen_frames": None}, True),
+        ({"confirm_new_stars": True}, False),
+        # The default: the five solutions before had the star inside and none named it (three
+        # are enough for a star never named since it came inside).
+        ({}, False),
+    ]
+    for kwargs, expect_named in cases:
+        tracker = starid.Tracker(cat, camera=cam, **kwargs)
         for f in seq[:-1]:
             step = tracker.update(f.xy, f.t_s)
         step = tracker.update(xy_last, last.t_s)

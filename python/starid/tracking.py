@@ -93,10 +93,12 @@ class Tracker:
         A star that the last this many solutions in a row had well inside the sensor without
         naming it (too faint for this camera) is named only once two frames in a row match it
         (default 10; None turns it off): a false spot that lands on such a star by chance does
-        not land on it again in the next frame. Stars that entered the field lately, or that
-        any of those solutions named, are named at once. On simulated sequences with 0-40
-        false spots this cut wrong ids from 31 to 11 in 9 950 frames and cost 13 of 176 974 real
-        stars named.
+        not land on it again in the next frame. A star that no solution named since it came
+        well inside is held so after 3 of them (or this many, if fewer): at 5 deg/s a star
+        crosses a 12 deg field in 24 frames. Stars that entered the field lately, or that the
+        last of those solutions named, are named at once. On three sets of simulated sequences
+        (29 850 frames, 0-40 false spots, 0.1-5 deg/s) wrong ids fell from 66 without the
+        rule to 16, for 76 fewer of 464 470 real stars named.
     config, **settings
         Identification settings, as :func:`starid.identify`.
 

@@ -227,6 +227,15 @@ fn main() {
                 .unwrap();
             ok_in += usize::from(a.is_identified());
             bad_in += wrong(&a, f);
+            if std::env::var("STARID_WRONG").is_ok() && wrong(&a, f) > 0 {
+                for (o, (got, want)) in a.catalog_index.iter().zip(&f.catalog_index).enumerate() {
+                    if got.is_some() && got != want {
+                        let star = got.unwrap() as usize;
+                        let tv = cam.cam_to_pixel(&(f.r_icrs_to_cam * catalog.vectors()[star]));
+                        println!("  wrong: {real}-star frame, spot {o} at {:?} truth {want:?} got {star} (mag {:.2}, truly at {tv:?}) spot mag {:.2} residual {:.1}\" radius {:.1}\" matched {} of {} spots, bound {:.1e}", f.centroids[o], catalog.mag()[star], f.magnitudes[o], a.residuals_rad[o].to_degrees() * 3600.0, a.match_radius_rad.to_degrees() * 3600.0, a.matched, f.centroids.len(), a.false_match_probability);
+                    }
+                }
+            }
             let off = AttitudeHint {
                 r_icrs_to_cam: offset(&mut rng, 1f64.to_radians()) * f.r_icrs_to_cam,
                 ..good

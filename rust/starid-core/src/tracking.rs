@@ -68,19 +68,33 @@ pub struct TrackerConfig {
     /// sensor (at least [`CONFIRM_MARGIN_PX`] from the edges) without naming it stays unnamed
     /// until two frames in a row match it: a star too faint for the camera, which a false spot
     /// lands on by chance, is known by the frames that did not see it, and a false spot does not
-    /// land on it again in the next frame. Stars that entered the field lately, or that were
-    /// named in any of those solutions, are named at once. `None` turns it off; ignored when
-    /// `confirm_new_stars` is on. Default [`CONFIRM_UNSEEN_FRAMES`].
+    /// land on it again in the next frame. A star that no solution named since it came well
+    /// inside is held so after [`CONFIRM_NEVER_NAMED_FRAMES`] of them; stars that entered the
+    /// field lately, or that were named in the last of those solutions, are named at once.
+    /// `None` turns it off; ignored when `confirm_new_stars` is on. Default
+    /// [`CONFIRM_UNSEEN_FRAMES`].
     pub confirm_unseen_frames: Option<u32>,
 }
 
-/// Default of [`TrackerConfig::confirm_unseen_frames`]. On 9 950 simulated frames (10 Hz,
-/// 0.1–5°/s, 0–40 false spots with catalogue-like magnitudes; `examples/tracking.rs`) it cut
-/// wrong ids from 31 to 11 and cost 13 of 176 974 real stars named; on two further sets of
+/// Default of [`TrackerConfig::confirm_unseen_frames`]. Alone, on 9 950 simulated frames
+/// (10 Hz, 0.1–5°/s, 0–40 false spots with catalogue-like magnitudes; `examples/tracking.rs`) it
+/// cut wrong ids from 31 to 11 and cost 13 of 176 974 real stars named; on two further sets of
 /// sequences 15 → 3 and 23 → 13 (12 and 26 real stars). Shorter streaks caught a few more
 /// (3 frames: 8 wrong ids) at several times the cost in real stars, and would hold back real
-/// stars that a camera detects only now and then near its limit.
+/// stars that a camera detects only now and then near its limit. With
+/// [`CONFIRM_NEVER_NAMED_FRAMES`] the three sets give 16 wrong ids instead of 66, for 76 of
+/// 464 470 real stars.
 pub const CONFIRM_UNSEEN_FRAMES: u32 = 10;
+
+/// With [`TrackerConfig::confirm_unseen_frames`] on, the solutions in a row after which a star
+/// that none of them named since it came well inside the sensor is held in the same way (or
+/// `confirm_unseen_frames`, if fewer). At 5°/s a star crosses a 12° field in 24 frames, so the
+/// longer streak leaves a faint star open to false spots for the first 10 of them; a real star
+/// near the camera's limit that entered unseen is named from its first two frames in a row,
+/// and once named, only the longer streak holds it again. On the sequences of
+/// `examples/tracking.rs` (three sets, 29 850 frames) it cut wrong ids from 25 to 16 and cost 27
+/// of 464 470 real stars named; 2 frames: the same wrong ids at a higher cost, 5: 19.
+pub const CONFIRM_NEVER_NAMED_FRAMES: u32 = 3;
 
 /// Distance from the sensor's edges within which a star of the last solution's field counts
 /// as entering the field (see [`TrackerConfig::confirm_new_stars`]).
@@ -129,8 +143,11 @@ pub struct Tracker {
     /// Catalogue stars the last solution named (before confirmation), sorted.
     named: Vec<u32>,
     /// Catalogue stars the last solutions had well inside the sensor without naming them:
-    /// (star, solutions in a row), sorted by star (see [`TrackerConfig::confirm_unseen_frames`]).
-    unseen: Vec<(u32, u32)>,
+    /// (star, solutions in a row, whether none named it since it came well inside), sorted by
+    /// star (see [`TrackerConfig::confirm_unseen_frames`]).
+    unseen: Vec<(u32, u32, bool)>,
+    /// Stars the last solution named, after the holds, sorted.
+    confirmed: Vec<u32>,
     /// Stars matched in the last frame but held back for a second frame, sorted.
     held: Vec<u32>,
     /// The focal length (and distortion) a lost-in-space solution's focal check found for the
@@ -202,6 +219,7 @@ impl Tracker {
             rate_change: 0.0,
             named: Vec::new(),
             unseen: Vec::new(),
+            confirmed: Vec::new(),
             held: Vec::new(),
             focal: None,
             zero_points: std::collections::VecDeque::new(),
@@ -226,6 +244,7 @@ impl Tracker {
         self.rate_change = 0.0;
         self.named.clear();
         self.unseen.clear();
+        self.confirmed.clear();
         self.held.clear();
     }
 
@@ -426,14 +445,17 @@ impl Tracker {
     }
 
     /// Unname the stars `id` names that the last `k` solutions in a row had well inside the
-    /// sensor without naming them, unless the last frame matched them too (they are in
+    /// sensor without naming them (the last [`CONFIRM_NEVER_NAMED_FRAMES`], when none named
+    /// them since they came well inside), unless the last frame matched them too (they are in
     /// `self.held`); the ones unnamed go to `held_now` (see
     /// [`TrackerConfig::confirm_unseen_frames`]).
     fn hold_unseen(&self, id: &mut Identification, k: u32, held_now: &mut Vec<u32>) {
         let mut dropped = 0;
         for (o, m) in id.catalog_index.iter_mut().enumerate() {
             let Some(star) = *m else { continue };
-            if self.streak(star) >= k && self.held.binary_search(&star).is_err() {
+            let (streak, fresh) = self.streak(star);
+            let suspect = streak >= k || (fresh && streak >= k.min(CONFIRM_NEVER_NAMED_FRAMES));
+            if suspect && self.held.binary_search(&star).is_err() {
                 *m = None;
                 id.residuals_rad[o] = f64::NAN;
                 dropped += 1;
@@ -445,7 +467,8 @@ impl Tracker {
     }
 
     /// The stars the solution `r` has well inside the sensor without naming them, with the
-    /// solutions in a row that did so.
+    /// solutions in a row that did so and whether any named them since they came well inside
+    /// (a star not in the list was either named by the last solution or is new there).
     fn count_unseen(
         &mut self,
         id: &Identification,
@@ -462,18 +485,30 @@ impl Tracker {
         catalog.for_each_in_cone(&boresight, 0.5 * camera.diagonal_fov_rad(), |star, _| {
             if named.binary_search(&star).is_err() && well_inside(camera, &(r * cat[star as usize]))
             {
-                unseen.push((star, self.streak(star).saturating_add(1)));
+                let (streak, fresh) = match self.entry(star) {
+                    Some((streak, fresh)) => (streak, fresh),
+                    None => (0, self.confirmed.binary_search(&star).is_err()),
+                };
+                unseen.push((star, streak.saturating_add(1), fresh));
             }
         });
         unseen.sort_unstable_by_key(|u| u.0);
         self.unseen = unseen;
+        self.confirmed = named;
     }
 
-    /// The solutions in a row that had `star` well inside the sensor without naming it.
-    fn streak(&self, star: u32) -> u32 {
+    /// The solutions in a row that had `star` well inside the sensor without naming it, and
+    /// whether none named it since it came well inside.
+    fn streak(&self, star: u32) -> (u32, bool) {
+        self.entry(star).unwrap_or((0, false))
+    }
+
+    /// `star`'s entry in `self.unseen`: solutions in a row, never named.
+    fn entry(&self, star: u32) -> Option<(u32, bool)> {
         self.unseen
             .binary_search_by_key(&star, |u| u.0)
-            .map_or(0, |i| self.unseen[i].1)
+            .ok()
+            .map(|i| (self.unseen[i].1, self.unseen[i].2))
     }
 
     /// Unname the stars `id` names for the first time although the last solution (attitude

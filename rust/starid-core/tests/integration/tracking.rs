@@ -1,5 +1,7 @@
 use starid_core::simulate::{simulate_sequence, SequenceConfig, SimConfig};
-use starid_core::tracking::{TrackMode, Tracker, TrackerConfig, CONFIRM_UNSEEN_FRAMES};
+use starid_core::tracking::{
+    TrackMode, Tracker, TrackerConfig, CONFIRM_NEVER_NAMED_FRAMES, CONFIRM_UNSEEN_FRAMES,
+};
 use starid_core::{Camera, ErrorKind, IdentifyConfig, SimFrame, Solver};
 
 use super::strategies::bundled;
@@ -62,48 +64,56 @@ fn a_false_spot_on_a_star_the_camera_never_saw_waits_for_a_second_frame() {
         .filter(|&s| cat.mag()[s as usize] > limit + 0.15)
         .find(|&s| seq.iter().all(|f| inside(pixel_of(&f.frame, s, &cam))))
         .expect("a faint star inside the field");
-    let first = CONFIRM_UNSEEN_FRAMES as usize + 2;
-    let run = |config: TrackerConfig| -> Vec<Option<u32>> {
-        let mut tracker = Tracker::new(config, IdentifyConfig::default()).unwrap();
-        let mut named = Vec::new();
-        for (i, f) in seq.iter().enumerate().take(first + 2) {
-            let mut frame = f.frame.clone();
-            let spot = (i >= first).then(|| spot_on(&mut frame, faint, &cam));
-            let step = tracker
-                .update(
-                    solver,
-                    &frame.centroids,
-                    Some(&frame.magnitudes),
-                    &cam,
-                    f.t_s,
-                )
-                .unwrap();
-            assert!(step.identification.is_identified(), "frame {i}");
-            assert_eq!(step.mode == TrackMode::Tracking, i > 0, "frame {i}");
-            // The real stars are never named wrongly.
-            for (got, want) in step
-                .identification
-                .catalog_index
-                .iter()
-                .zip(&frame.catalog_index)
-            {
-                assert!(got.is_none() || got == want || Some(*got) == spot.map(|_| Some(faint)));
+    // The false spot comes after the star was unseen by 4 solutions (held because none named it
+    // since it came inside) and after 12 (held by the longer streak).
+    for first in [
+        CONFIRM_NEVER_NAMED_FRAMES as usize + 1,
+        CONFIRM_UNSEEN_FRAMES as usize + 2,
+    ] {
+        let run = |config: TrackerConfig| -> Vec<Option<u32>> {
+            let mut tracker = Tracker::new(config, IdentifyConfig::default()).unwrap();
+            let mut named = Vec::new();
+            for (i, f) in seq.iter().enumerate().take(first + 2) {
+                let mut frame = f.frame.clone();
+                let spot = (i >= first).then(|| spot_on(&mut frame, faint, &cam));
+                let step = tracker
+                    .update(
+                        solver,
+                        &frame.centroids,
+                        Some(&frame.magnitudes),
+                        &cam,
+                        f.t_s,
+                    )
+                    .unwrap();
+                assert!(step.identification.is_identified(), "frame {i}");
+                assert_eq!(step.mode == TrackMode::Tracking, i > 0, "frame {i}");
+                // The real stars are never named wrongly.
+                for (got, want) in step
+                    .identification
+                    .catalog_index
+                    .iter()
+                    .zip(&frame.catalog_index)
+                {
+                    assert!(
+                        got.is_none() || got == want || Some(*got) == spot.map(|_| Some(faint))
+                    );
+                }
+                if let Some(o) = spot {
+                    named.push(step.identification.catalog_index[o]);
+                }
             }
-            if let Some(o) = spot {
-                named.push(step.identification.catalog_index[o]);
-            }
-        }
-        named
-    };
-    // Without the rule the false spot is named after the faint star at once: the case is real.
-    let off = run(TrackerConfig {
-        confirm_unseen_frames: None,
-        ..TrackerConfig::default()
-    });
-    assert_eq!(off, vec![Some(faint), Some(faint)]);
-    // With it, the first frame holds it back; a second frame in a row that matches it names it.
-    let on = run(TrackerConfig::default());
-    assert_eq!(on, vec![None, Some(faint)]);
+            named
+        };
+        // Without the rule the false spot is named after the faint star at once: the case is real.
+        let off = run(TrackerConfig {
+            confirm_unseen_frames: None,
+            ..TrackerConfig::default()
+        });
+        assert_eq!(off, vec![Some(faint), Some(faint)]);
+        // With it, the first frame holds it back; a second frame in a row that matches it names it.
+        let on = run(TrackerConfig::default());
+        assert_eq!(on, vec![None, Some(faint)], "false spot from frame {first}");
+    }
 }
 
 #[test]
