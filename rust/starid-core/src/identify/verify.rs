@@ -79,15 +79,11 @@ impl Search<'_> {
             if matched < self.min_fit() {
                 return None;
             }
-            let s = &mut self.scratch;
-            if s.matches
-                .iter()
-                .map(|m| m.map(|(c, _)| c))
-                .eq(s.fitted.iter().copied())
-            {
+            if self.matches_fitted() {
                 fixed_point = true;
                 break;
             }
+            let s = &mut self.scratch;
             s.fitted.clear();
             s.fitted.extend(s.matches.iter().map(|m| m.map(|(c, _)| c)));
             self.collect_matched(obs);
@@ -134,8 +130,17 @@ impl Search<'_> {
         // the attitude that matches more spots at the same radius. Residuals well above the
         // step's noise say the same of a fit that matched most spots.
         if (2 * matched < n && n >= REGROW_MIN_SPOTS) || sigma > 2.0 * sigma_rad {
-            for _ in 0..2 {
+            let mut rematch = true;
+            for round in 0..2 {
                 let wide = self.match_all(&r, obs, REGROW_FACTOR * radius, REGROW_FACTOR * sigma);
+                // The wide pass names exactly the stars the fixed point's attitude was fitted to:
+                // the refit would return that attitude and match as it did, and the matches held
+                // now are the fixed point's own (same stars, same attitude, same distances).
+                // Frames of many false spots take this way out in most verifications.
+                if round == 0 && fixed_point && self.matches_fitted() {
+                    rematch = false;
+                    break;
+                }
                 let Some(r2) = (wide >= 3)
                     .then(|| {
                         self.collect_matched(obs);
@@ -162,7 +167,9 @@ impl Search<'_> {
                 }
             }
             // The matches of the attitude kept.
-            matched = self.match_all(&r, obs, radius, sigma);
+            if rematch {
+                matched = self.match_all(&r, obs, radius, sigma);
+            }
         }
         // Tracking names frames of few stars among many spots: there a false spot on a
         // catalogue star too faint to be imaged must not count (see `drop_unseen_magnitudes`).
@@ -378,6 +385,16 @@ impl Search<'_> {
         s.claims
             .unmatch_contested(&s.near, &mut s.matches, radius, decisive, allowed);
         s.matches.iter().filter(|m| m.is_some()).count()
+    }
+
+    /// Whether the last matching pass named, centroid by centroid, the stars the attitude was
+    /// last fitted to.
+    fn matches_fitted(&self) -> bool {
+        let s = &self.scratch;
+        s.matches
+            .iter()
+            .map(|m| m.map(|(c, _)| c))
+            .eq(s.fitted.iter().copied())
     }
 
     /// Fill the matched vector lists from `scratch.matches`; returns their length.
