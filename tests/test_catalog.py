@@ -97,6 +97,13 @@ def test_malformed_catalogues(tmp_path: Path, text: str, match: str) -> None:
         starid.Catalog.from_csv(p)
 
 
+def test_a_file_that_is_not_text_is_a_catalogue_error_naming_its_line(tmp_path: Path) -> None:
+    p = tmp_path / "bad.csv"
+    p.write_bytes(b"id,ra_deg,dec_deg,mag\n1,10,20,3\n2,\xff\xfe,1,1\n")
+    with pytest.raises(starid.CatalogError, match=r"line 3.*not UTF-8"):
+        starid.Catalog.from_csv(p)
+
+
 def test_missing_file() -> None:
     with pytest.raises(FileNotFoundError):
         starid.Catalog.from_csv("/nonexistent/cat.csv")

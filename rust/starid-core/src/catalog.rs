@@ -204,7 +204,8 @@ impl Catalog {
     /// Blank lines and lines starting with `#` or `%` are skipped.
     ///
     /// # Errors
-    /// `Catalog { line }` for a malformed record, `Io` when reading fails.
+    /// `Catalog { line }` for a malformed record or text that is not UTF-8, `Io` when reading
+    /// fails.
     ///
     /// # Example
     /// ```
@@ -213,8 +214,14 @@ impl Catalog {
     /// assert_eq!(cat.ids(), &[1, 2]);
     /// ```
     pub fn from_table(mut reader: impl BufRead) -> Result<Self> {
-        let mut text = String::new();
-        reader.read_to_string(&mut text)?;
+        let mut bytes = Vec::new();
+        reader.read_to_end(&mut bytes)?;
+        // A binary or wrongly encoded file is a malformed table, named by its first bad line.
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+            let line = good.iter().filter(|&&b| b == b'\n').count() + 1;
+            Error::catalog(Some(line), "the table is not UTF-8 text")
+        })?;
         let text = text.trim_start_matches('\u{feff}');
         let first = text
             .lines()
