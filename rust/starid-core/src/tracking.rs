@@ -459,7 +459,7 @@ impl Tracker {
         let mut dropped = 0;
         for (o, m) in id.catalog_index.iter_mut().enumerate() {
             let Some(star) = *m else { continue };
-            let (streak, fresh) = self.streak(star);
+            let (streak, fresh) = self.entry(star).unwrap_or((0, false));
             let suspect = streak >= k || (fresh && streak >= k.min(CONFIRM_NEVER_NAMED_FRAMES));
             if suspect && self.held.binary_search(&star).is_err() {
                 *m = None;
@@ -491,10 +491,9 @@ impl Tracker {
         catalog.for_each_in_cone(&boresight, 0.5 * camera.diagonal_fov_rad(), |star, _| {
             if named.binary_search(&star).is_err() && well_inside(camera, &(r * cat[star as usize]))
             {
-                let (streak, fresh) = match self.entry(star) {
-                    Some((streak, fresh)) => (streak, fresh),
-                    None => (0, self.confirmed.binary_search(&star).is_err()),
-                };
+                let (streak, fresh) = self
+                    .entry(star)
+                    .unwrap_or_else(|| (0, self.confirmed.binary_search(&star).is_err()));
                 unseen.push((star, streak.saturating_add(1), fresh));
             }
         });
@@ -503,13 +502,8 @@ impl Tracker {
         self.confirmed = named;
     }
 
-    /// The solutions in a row that had `star` well inside the sensor without naming it, and
-    /// whether none named it since it came well inside.
-    fn streak(&self, star: u32) -> (u32, bool) {
-        self.entry(star).unwrap_or((0, false))
-    }
-
-    /// `star`'s entry in `self.unseen`: solutions in a row, never named.
+    /// `star`'s entry in `self.unseen`: the solutions in a row that had it well inside the sensor
+    /// without naming it, and whether none named it since it came well inside.
     fn entry(&self, star: u32) -> Option<(u32, bool)> {
         self.unseen
             .binary_search_by_key(&star, |u| u.0)

@@ -252,12 +252,10 @@ impl Search<'_> {
         s.claim.clear();
         s.ambiguous.clear();
         s.near.ensure(catalog, r, obs, contest_rad);
+        let allowed = |o: usize, star: u32| gate_allows(gate, mags, o, star);
         for o in 0..obs.len() {
             let two = s.near.nearest_two(o, radius);
-            // In a gated pass a centroid may not be far brighter than its star (one-sided, as
-            // in `drop_too_bright`: a saturated or variable star fainter than expected keeps it).
-            let allowed = |star: u32| gate.is_none_or(|g| mags[star as usize] <= g[o][1]);
-            let m = match nearest_match(two, sigma_rad, allowed) {
+            let m = match nearest_match(two, sigma_rad, |star| gate_allows(gate, mags, o, star)) {
                 Nearest::Unique(star, d) => Some((star, d)),
                 Nearest::Ambiguous(a) => {
                     s.ambiguous.push((o as u32, a));
@@ -381,7 +379,6 @@ impl Search<'_> {
         // A catalogue star claimed by two centroids is ambiguous: neither gets it.
         s.claims
             .unmatch_shared(&s.claim, &mut s.matches, catalog.len());
-        let allowed = |o: usize, star: u32| gate.is_none_or(|g| mags[star as usize] <= g[o][1]);
         s.claims
             .unmatch_contested(&s.near, &mut s.matches, radius, decisive, allowed);
         s.matches.iter().filter(|m| m.is_some()).count()
@@ -873,6 +870,14 @@ impl Claims {
             matches[a as usize] = None;
         }
     }
+}
+
+/// Whether centroid `o` may be catalogue star `star` in a pass gated by `gate` (always, ungated):
+/// a centroid may not be far brighter than its star (one-sided, as in `drop_too_bright`: a
+/// saturated or variable star fainter than expected keeps it).
+#[inline]
+fn gate_allows(gate: Option<&[[f32; 2]]>, mags: &[f32], o: usize, star: u32) -> bool {
+    gate.is_none_or(|g| mags[star as usize] <= g[o][1])
 }
 
 /// Of the nearest two catalogue stars to a centroid (with squared distances), the nearest that
