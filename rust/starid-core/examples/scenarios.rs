@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release --example scenarios -- [FRAMES] [REPEAT] [SCENARIO-SUBSTRING]`
 //!
-//! `REPEAT` identifies every frame that many times (for profilers); times are of the first pass.
+//! `REPEAT` identifies every frame that many times (for profilers); each frame's time is its fastest.
 //! Environment: `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
 //! the hopeless ones); `STARID_HYP` prints hypothesis counts; `STARID_FAILS` lists failures and
 //! wrong ids; `STARID_SEED=N` runs one frame; `STARID_ORDER_ONLY` gives the centroids brightest
@@ -138,6 +138,8 @@ fn main() {
         let mut hyps: Vec<usize> = Vec::new();
         let mut fast = vec![true; sims.len()];
         let fast_only = std::env::var("STARID_FAST_ONLY").is_ok();
+        // Where each frame's time is in `times`.
+        let mut slot = std::collections::HashMap::new();
         for pass in 0..repeat {
             for (fi, f) in sims.iter().enumerate() {
                 if pass > 0 && fast_only && !fast[fi] {
@@ -158,11 +160,17 @@ fn main() {
                 let r = solver
                     .identify(&f.centroids, mags, &told, &config)
                     .expect("identify");
+                let t = r.elapsed.as_secs_f64();
                 if pass > 0 {
+                    // Each frame's fastest call (the repeats measure the solver, not the machine).
+                    if let Some(&k) = slot.get(&fi) {
+                        times[k] = f64::min(times[k], t);
+                    }
                     continue;
                 }
-                fast[fi] = r.elapsed.as_secs_f64() < 150e-6;
-                times.push(r.elapsed.as_secs_f64());
+                fast[fi] = t < 150e-6;
+                slot.insert(fi, times.len());
+                times.push(t);
                 if std::env::var("STARID_SEED").is_ok() {
                     println!(
                         "  seed {fi}: {:?} hypotheses {} matched {} p {:e} time {:?}",
