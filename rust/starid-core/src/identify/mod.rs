@@ -1129,25 +1129,38 @@ impl Solver {
             id.method = config.method;
             return Ok(id);
         }
-        let obs: Vec<Vector3<f64>> = centroids
-            .iter()
-            .map(|c| camera.pixel_to_cam(c[0], c[1], false))
-            .collect();
-        let obs_mirrored: Vec<Vector3<f64>> = if camera.is_ideal() {
-            obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)).collect()
-        } else {
+        // The frame's buffers come from the thread's scratch and go back to it at the end.
+        let mut scratch = take_scratch();
+        let mut frame = std::mem::take(&mut scratch.frame);
+        let FrameBuffers {
+            obs,
+            obs_mirrored,
+            order,
+            passes,
+        } = &mut frame;
+        obs.clear();
+        obs.extend(
             centroids
                 .iter()
-                .map(|c| camera.pixel_to_cam(c[0], c[1], true))
-                .collect()
-        };
-        let order = brightness_order(n, magnitudes);
+                .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
+        );
+        obs_mirrored.clear();
+        if camera.is_ideal() {
+            obs_mirrored.extend(obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)));
+        } else {
+            obs_mirrored.extend(
+                centroids
+                    .iter()
+                    .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
+            );
+        }
+        brightness_order_into(n, magnitudes, order);
         let ladder: &[f64] = match &config.centroid_sigma_px {
             Some(s) => std::slice::from_ref(s),
             None => &SIGMA_LADDER_PX,
         };
         let gated = self.magnitudes_fit(magnitudes, config);
-        let passes = self.passes(n, ladder, magnitudes.is_some(), gated, config);
+        self.passes(n, ladder, magnitudes.is_some(), gated, config, passes);
         // Catalogue-magnitude windows of each centroid (known zero point): the tight one first
         // (fewer hypotheses compete, so a solution of few stars can pass the bound), then the
         // configured one.
@@ -1175,16 +1188,15 @@ impl Solver {
             .max()
             .unwrap_or(3)
             .min(n);
-        let mut scratch = take_scratch();
         scratch.angles.clear();
         scratch.angles.resize(stride * stride, [f64::NAN; 3]);
         let mut search = Search::new(
             self,
             camera,
             config,
-            [&obs, &obs_mirrored],
+            [obs, obs_mirrored],
             magnitudes,
-            &order,
+            order,
             scratch,
         );
         search.stride = stride;
@@ -1192,7 +1204,7 @@ impl Solver {
         let mut status = Status::NoMatch;
         // Set when the gated passes spent the budget: only the closing pass runs then.
         let mut closing_only = false;
-        for pass in passes {
+        for &pass in passes.iter() {
             if closing_only && !pass.closing {
                 continue;
             }
@@ -1265,7 +1277,9 @@ impl Solver {
                 Ok(Some(v)) => {
                     let hypotheses = search.hypotheses;
                     let method = search.method;
-                    return_scratch(search.scratch);
+                    let mut scratch = search.scratch;
+                    scratch.frame = frame;
+                    return_scratch(scratch);
                     let mut id = v.into_identification(hypotheses, start.elapsed());
                     id.method = method;
                     return Ok(id);
@@ -1284,7 +1298,9 @@ impl Solver {
             }
         }
         let hypotheses = search.hypotheses;
-        return_scratch(search.scratch);
+        let mut scratch = search.scratch;
+        scratch.frame = frame;
+        return_scratch(scratch);
         let mut id = Identification::unidentified(status, n, hypotheses, start.elapsed());
         id.method = config.method;
         Ok(id)
@@ -1329,7 +1345,8 @@ impl Solver {
         has_mags: bool,
         gated: bool,
         config: &IdentifyConfig,
-    ) -> Vec<Pass> {
+        passes: &mut Vec<Pass>,
+    ) {
         let (last, early) = ladder.split_last().expect("the ladder has a step");
         let pass = |bright: bool, stars: usize, sigma_px: f64, cap: usize| Pass {
             bright,
@@ -1348,7 +1365,7 @@ impl Solver {
             closing: true,
             ..pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX)
         };
-        let mut passes = Vec::with_capacity(8);
+        passes.clear();
         if config.method == Method::Voting || config.method.is_seed() {
             for &s in ladder {
                 passes.push(Pass {
@@ -1357,7 +1374,7 @@ impl Solver {
                     ..pass(false, n.min(HOSTILE_SEARCH_STARS), s, usize::MAX)
                 });
             }
-            return passes;
+            return;
         }
         // Without magnitudes, the input order is taken as brightness order (extractors list
         // spots brightest first) unless the configuration says it is not: the cheap pass over the
@@ -1428,7 +1445,7 @@ impl Solver {
                 if bright && !early.is_empty() {
                     passes.push(closing_pass);
                 }
-                return passes;
+                return;
             }
         }
         passes.extend(
@@ -1448,10 +1465,9 @@ impl Solver {
             },
             ..pass(false, config.max_search_stars, *last, usize::MAX)
         });
-        for p in &mut passes {
+        for p in passes.iter_mut() {
             p.stars = p.stars.min(n);
         }
-        passes
     }
 }
 
@@ -1680,8 +1696,17 @@ impl Solver {
 
 /// The centroids brightest first (by magnitude, ties by index), or as given without magnitudes.
 pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usize> {
+    let mut order = Vec::with_capacity(n);
+    brightness_order_into(n, magnitudes, &mut order);
+    order
+}
+
+/// [`brightness_order`] into `order` (cleared first): a search keeps the buffer between calls.
+pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order: &mut Vec<usize>) {
+    order.clear();
     let Some(m) = magnitudes else {
-        return (0..n).collect();
+        order.extend(0..n);
+        return;
     };
     // Each magnitude as an integer in the order of `f64::total_cmp`: sorting (key, index) pairs
     // gives the order with ties by index, each comparison as cheap as one of integers.
@@ -1707,11 +1732,12 @@ pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usiz
             }
             idx[j] = i as u8;
         }
-        return idx[..n].iter().map(|&i| usize::from(i)).collect();
+        order.extend(idx[..n].iter().map(|&i| usize::from(i)));
+        return;
     }
     let mut keyed: Vec<(i64, usize)> = m.iter().enumerate().map(|(i, &x)| (key(x), i)).collect();
     keyed.sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
+    order.extend(keyed.into_iter().map(|(_, i)| i));
 }
 
 /// Most centroids whose duplicates [`validate_centroids`] screens by hashing (more: by sorting).
@@ -1911,9 +1937,22 @@ impl SortedMags {
 /// The search must stop: the hypothesis budget or the time ran out.
 struct SearchLimit(Status);
 
+/// A frame's own buffers in a lost-in-space search: its directions, order and passes.
+#[derive(Default)]
+struct FrameBuffers {
+    obs: Vec<Vector3<f64>>,
+    obs_mirrored: Vec<Vector3<f64>>,
+    order: Vec<usize>,
+    passes: Vec<Pass>,
+}
+
 /// Reusable buffers: no allocation per hypothesis.
 #[derive(Default)]
 struct Scratch {
+    /// The frame being searched (taken out of the scratch while the search borrows it).
+    frame: FrameBuffers,
+    /// Binomial tails each pass needs again.
+    tails: pyramid::TailMemo,
     adj_ik: pyramid::Adjacency,
     triangles: Vec<[u32; 3]>,
     matches: Vec<Option<(u32, f64)>>,

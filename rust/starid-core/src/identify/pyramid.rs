@@ -11,7 +11,7 @@ use super::{
     STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
 };
 use crate::attitude::{triad, wahba_from};
-use crate::kvector::AngleWindow;
+use crate::kvector::{AngleWindow, Pairs};
 
 impl Search<'_> {
     /// One pass: Pyramid search over the brightest `stars` centroids in `self.pairs` at
@@ -45,10 +45,12 @@ impl Search<'_> {
         let cat_len = self.solver.catalog.len() as f64;
         let p_chance = (2.0 * cat_len / (4.0 * PI) * PI * r_confirm * r_confirm).min(1.0);
         let others = self.order.len().min(CONFIRM_POOL) - 3;
-        let confirmations = (1..=others)
-            .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
-            .unwrap_or(others)
-            .max(1);
+        let confirmations = self.scratch.tails.get_or(0, others, p_chance, || {
+            (1..=others)
+                .find(|&c| binomial_tail(others, c, p_chance) <= CONFIRM_CHANCE)
+                .unwrap_or(others)
+                .max(1) as f64
+        }) as usize;
         // What the frame can still prove: even if every centroid matched, the bound of a solution
         // at this step, with the sparsest field's density and the smallest match radius, must
         // stay under the limit; past this many hypotheses it cannot, and the pass ends.
@@ -60,7 +62,10 @@ impl Search<'_> {
         };
         let r_min = MATCH_RADIUS_SIGMAS * sigma_rad;
         let p_min = (self.solver.min_density_sr() * PI * r_min * r_min * frac).min(1.0);
-        let best_tail = binomial_tail(n - 3, n - 3, p_min);
+        let best_tail = self
+            .scratch
+            .tails
+            .get_or(1, n - 3, p_min, || binomial_tail(n - 3, n - 3, p_min));
         let provable_until = self.config.max_false_match_prob / best_tail.max(f64::MIN_POSITIVE);
         let max_angle = self.pairs.max_angle_rad() - eps;
         let stride = self.stride;
@@ -301,12 +306,18 @@ impl Search<'_> {
         let look_other = if l0 == shared { l1 } else { l0 };
         let (cos_lo, cos_hi) = windows[closing].cosines();
         // Lists are needed only at the walked pairs' stars.
-        self.scratch
-            .adj_ik
-            .fill_for(idx.pairs(look.0.clone()), idx.pairs(walk.0.clone()), n_cat);
+        self.scratch.adj_ik.fill_ranges(
+            idx.pairs(look.0.clone()),
+            idx.pairs(walk.0.clone()),
+            n_cat,
+        );
         let adj = &self.scratch.adj_ik;
         for [p, q] in idx.pairs(walk.0) {
             for (x, y) in [(p, q), (q, p)] {
+                // Most walked stars have no partner on the looked-up side.
+                if !adj.has_partners(x) {
+                    continue;
+                }
                 let vy = &cat[y as usize];
                 for z in adj.partners(x) {
                     let c = vy.dot(&cat[z as usize]);
@@ -539,6 +550,49 @@ impl RuleOut {
 
 const NONE: u32 = u32::MAX;
 
+/// Slots of a [`TailMemo`].
+const TAIL_MEMO_SLOTS: usize = 512;
+
+/// The last values of a few functions of `(count, probability)` that every pass computes again
+/// with the same arguments (the confirmations a step needs, the best tail a frame can reach),
+/// remembered per thread: a binomial tail costs about as much as a triangle's join. A slot
+/// holds one argument pair; a different one replaces it, so the values are exactly those computed.
+pub(super) struct TailMemo {
+    slots: Vec<(u64, usize, f64)>,
+}
+
+impl Default for TailMemo {
+    fn default() -> Self {
+        Self {
+            slots: vec![(u64::MAX, usize::MAX, 0.0); TAIL_MEMO_SLOTS],
+        }
+    }
+}
+
+impl TailMemo {
+    /// `compute()`, the value of function `which` at `(count, p)`, remembered.
+    pub(super) fn get_or(
+        &mut self,
+        which: u64,
+        count: usize,
+        p: f64,
+        compute: impl FnOnce() -> f64,
+    ) -> f64 {
+        // `which` in the top bit (a probability's bits never set it: p ≥ 0).
+        let key = p.to_bits() | (which << 63);
+        let h = (key ^ (key >> 29) ^ (count as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let slot = &mut self.slots[(h >> 55) as usize % TAIL_MEMO_SLOTS];
+        if slot.0 != key || slot.1 != count {
+            *slot = (key, count, compute());
+        }
+        slot.2
+    }
+}
+
+/// Stars a 16-bit pair index can name.
+const NARROW_STARS: usize = 1 << 16;
+
 /// Adjacency lists of a set of catalogue pairs (both orientations) as linked lists indexed by
 /// catalogue star: O(1) to look up, O(pairs) to fill and to reset, no sorting.
 #[derive(Default)]
@@ -573,9 +627,12 @@ impl Adjacency {
     /// one asks about (most of them) are passed over with a look-up and no push.
     pub(super) fn start(&mut self, n_cat: usize) {
         self.reset(n_cat);
-        if self.wanted.len() != n_cat || self.fills == u32::MAX {
+        // At least NARROW_STARS entries, so that a narrow index's 16-bit stars index it with no
+        // bounds check (see `fill_narrow`).
+        let len = n_cat.max(NARROW_STARS);
+        if self.wanted.len() != len || self.fills == u32::MAX {
             self.wanted.clear();
-            self.wanted.resize(n_cat, 0);
+            self.wanted.resize(len, 0);
             self.fills = 0;
         }
         self.fills += 1;
@@ -592,6 +649,57 @@ impl Adjacency {
     pub(super) fn push_wanted(&mut self, star: u32, partner: u32) {
         if self.wanted[star as usize] == self.fills {
             self.push(star, partner);
+        }
+    }
+
+    /// [`Adjacency::fill_for`] of an index's ranges: a narrow index's (16-bit stars) read as
+    /// slices, without a bounds check per pair.
+    pub(super) fn fill_ranges(&mut self, pairs: Pairs<'_>, wanted: Pairs<'_>, n_cat: usize) {
+        match (pairs, wanted) {
+            (Pairs::Narrow(p), Pairs::Narrow(w)) => {
+                self.fill_narrow(p.as_slice(), w.as_slice(), n_cat)
+            }
+            (p, w) => self.fill_for(p, w, n_cat),
+        }
+    }
+
+    /// [`Adjacency::fill_for`] of 16-bit pairs.
+    #[inline(never)]
+    fn fill_narrow(&mut self, pairs: &[[u16; 2]], wanted: &[[u16; 2]], n_cat: usize) {
+        self.start(n_cat);
+        let fill = self.fills;
+        let Self {
+            head,
+            next,
+            partner,
+            touched,
+            wanted: marks,
+            ..
+        } = self;
+        let marks: &mut [u32; NARROW_STARS] = (&mut marks[..NARROW_STARS])
+            .try_into()
+            .expect("start sizes the marks for 16-bit stars");
+        for &[p, q] in wanted {
+            marks[usize::from(p)] = fill;
+            marks[usize::from(q)] = fill;
+        }
+        let mut push = |star: u16, other: u16| {
+            let h = &mut head[usize::from(star)];
+            if *h == NONE {
+                touched.push(u32::from(star));
+            }
+            next.push(*h);
+            partner.push(u32::from(other));
+            *h = (partner.len() - 1) as u32;
+        };
+        for &[p, q] in pairs {
+            let (wp, wq) = (marks[usize::from(p)] == fill, marks[usize::from(q)] == fill);
+            if wp {
+                push(p, q);
+            }
+            if wq {
+                push(q, p);
+            }
         }
     }
 
@@ -631,6 +739,12 @@ impl Adjacency {
         *h = (self.partner.len() - 1) as u32;
     }
 
+    /// Whether the list of `star` holds any partner.
+    #[inline]
+    pub(super) fn has_partners(&self, star: u32) -> bool {
+        self.head[star as usize] != NONE
+    }
+
     #[inline]
     pub(super) fn partners(&self, star: u32) -> impl Iterator<Item = u32> + '_ {
         let mut at = self.head[star as usize];
@@ -647,6 +761,32 @@ impl Adjacency {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_tail_memo_answers_what_it_was_asked_to_compute() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        let mut memo = TailMemo::default();
+        // Far more argument pairs than slots, each asked twice: collisions must recompute.
+        let args: Vec<(u64, usize, f64)> = (0..4 * TAIL_MEMO_SLOTS)
+            .map(|_| {
+                (
+                    rng.random_range(0..2),
+                    rng.random_range(0..200),
+                    rng.random_range(0.0..1.0),
+                )
+            })
+            .collect();
+        let f = |w: u64, c: usize, p: f64| binomial_tail(c, c / 3 + w as usize, p);
+        for _ in 0..2 {
+            for &(w, c, p) in &args {
+                assert_eq!(memo.get_or(w, c, p, || f(w, c, p)), f(w, c, p));
+            }
+        }
+        // The function's tag tells two values at the same arguments apart.
+        assert_eq!(memo.get_or(0, 5, 0.25, || 1.0), 1.0);
+        assert_eq!(memo.get_or(1, 5, 0.25, || 2.0), 2.0);
+    }
 
     #[test]
     fn a_fill_for_some_stars_holds_their_whole_lists_in_order() {
@@ -667,7 +807,16 @@ mod tests {
             let wanted: Vec<[u32; 2]> = (0..rng.random_range(0..20))
                 .map(|_| pair(&mut rng))
                 .collect();
-            adj.fill_for(pairs.iter().copied(), wanted.iter().copied(), n_cat);
+            // The 16-bit path (every bundled catalogue's) on odd trials: the same lists.
+            if trial % 2 == 1 {
+                let narrow = |v: &[[u32; 2]]| -> Vec<[u16; 2]> {
+                    v.iter().map(|p| p.map(|i| i as u16)).collect()
+                };
+                let (p16, w16) = (narrow(&pairs), narrow(&wanted));
+                adj.fill_ranges(Pairs::Narrow(p16.iter()), Pairs::Narrow(w16.iter()), n_cat);
+            } else {
+                adj.fill_for(pairs.iter().copied(), wanted.iter().copied(), n_cat);
+            }
             for &star in wanted.iter().flatten() {
                 // Partners as a fill of every star lists them: the latest pair first.
                 let want: Vec<u32> = pairs
