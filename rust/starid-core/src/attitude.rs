@@ -24,6 +24,10 @@ const GAUSS_NEWTON_MAX_STEPS: usize = 8;
 /// for the small residuals of star fields, so what remains is far below 1e-12 rad.
 const GAUSS_NEWTON_DONE_RAD: f64 = 1e-8;
 
+/// The iteration also ends when the next step, as the last two predict it, would be below this
+/// (radians): the attitude is then that close to the fixed point.
+const GAUSS_NEWTON_NEXT_RAD: f64 = 1e-10;
+
 /// TRIAD: the rotation mapping `ref_a` onto `obs_a` exactly and the plane of (`ref_a`, `ref_b`)
 /// onto that of (`obs_a`, `obs_b`). `None` when either pair is parallel.
 ///
@@ -81,28 +85,30 @@ pub fn wahba_from(
     if obs_cam.len() < 2 || obs_cam.len() != ref_icrs.len() {
         return None;
     }
-    // One pass over the pairs: B = Σ bᵢ rᵢᵀ and C = Σ rᵢ rᵢᵀ. With pᵢ = R rᵢ, Σ pᵢ pᵢᵀ = R C Rᵀ,
-    // and Σ pᵢ × bᵢ is the axial vector of Σ (bᵢ pᵢᵀ − pᵢ bᵢᵀ) = M − Mᵀ, M = B Rᵀ: each step then
-    // costs the same for any number of pairs.
+    // One pass over the pairs: B = Σ bᵢ rᵢᵀ and C = Σ rᵢ rᵢᵀ. Each step perturbs the attitude on
+    // the catalogue side, R (I + [ε×]): with qᵢ = Rᵀ bᵢ the normal equations are
+    // (n I − C) ε = Σ rᵢ × qᵢ, the axial vector of N − Nᵀ with N = Rᵀ B. The normal matrix does
+    // not depend on R, so it is inverted once, and each step costs the same for any number of
+    // pairs. (The same iterates as perturbing on the camera side, (I + [Rε×]) R.)
     let (mut b, mut c) = (Matrix3::zeros(), Matrix3::zeros());
     for (o, v) in obs_cam.iter().zip(ref_icrs) {
         b += o * v.transpose();
         c += v * v.transpose();
     }
     let n = obs_cam.len() as f64;
+    let Some(inverse) = spd3_inverse(&(Matrix3::identity() * n - c)) else {
+        return wahba_svd(obs_cam, ref_icrs);
+    };
     let mut r = *start;
+    let mut last_step = 0.0;
     for _ in 0..GAUSS_NEWTON_MAX_STEPS {
-        let rm = r.matrix();
-        let normal = Matrix3::identity() * n - rm * c * rm.transpose();
-        let m = b * rm.transpose();
+        let m = r.matrix().transpose() * b;
         let gradient = Vector3::new(
             m[(2, 1)] - m[(1, 2)],
             m[(0, 2)] - m[(2, 0)],
             m[(1, 0)] - m[(0, 1)],
         );
-        let Some(step) = solve_spd3(&normal, &gradient) else {
-            break;
-        };
+        let step = inverse * gradient;
         if !step.iter().all(|x| x.is_finite()) {
             break;
         }
@@ -112,19 +118,24 @@ pub fn wahba_from(
             0.5 * step.y,
             0.5 * step.z,
         ));
-        r = q.to_rotation_matrix() * r;
-        if step.norm() < GAUSS_NEWTON_DONE_RAD {
+        r *= q.to_rotation_matrix();
+        // Done when this step, or the next one as the last two predict it (the steps shrink
+        // by at least their ratio: linearly, at the rate of the residuals, or quadratically),
+        // is below the tolerance.
+        let size = step.norm();
+        if size < GAUSS_NEWTON_DONE_RAD || size * size < GAUSS_NEWTON_NEXT_RAD * last_step {
             return Some(r);
         }
+        last_step = size;
     }
     wahba_svd(obs_cam, ref_icrs)
 }
 
-/// `x` with `m x = g` for a symmetric positive-definite 3×3 `m`, by cofactors (the normal
-/// equations of a Gauss–Newton step: cheaper than a general factorisation at this size).
-/// `None` unless every leading minor is positive (where a Cholesky factorisation would fail).
+/// The inverse of a symmetric positive-definite 3×3 `m`, by cofactors (the normal matrix of a
+/// Gauss–Newton step: cheaper than a general factorisation at this size). `None` unless every
+/// leading minor is positive (where a Cholesky factorisation would fail).
 #[inline]
-fn solve_spd3(m: &Matrix3<f64>, g: &Vector3<f64>) -> Option<Vector3<f64>> {
+fn spd3_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let (a, b, c) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
     let (d, e, f) = (m[(1, 1)], m[(1, 2)], m[(2, 2)]);
     let (c00, c01, c02) = (d * f - e * e, c * e - b * f, b * e - c * d);
@@ -133,13 +144,7 @@ fn solve_spd3(m: &Matrix3<f64>, g: &Vector3<f64>) -> Option<Vector3<f64>> {
     if !(a > 0.0 && c22 > 0.0 && det > 0.0) {
         return None;
     }
-    Some(
-        Vector3::new(
-            c00 * g.x + c01 * g.y + c02 * g.z,
-            c01 * g.x + c11 * g.y + c12 * g.z,
-            c02 * g.x + c12 * g.y + c22 * g.z,
-        ) / det,
-    )
+    Some(Matrix3::new(c00, c01, c02, c01, c11, c12, c02, c12, c22) / det)
 }
 
 /// Rotation ICRS → camera that best maps `ref_icrs[i]` onto `obs_cam[i]` (equal weights).
@@ -183,20 +188,16 @@ mod tests {
     use nalgebra::Unit;
 
     #[test]
-    fn the_three_by_three_solve_matches_cholesky() {
+    fn the_three_by_three_inverse_matches_cholesky() {
         let m = Matrix3::new(3.0, 0.2, -0.1, 0.2, 2.5, 0.3, -0.1, 0.3, 0.05);
         let g = Vector3::new(0.3, -1.2, 0.05);
-        let x = solve_spd3(&m, &g).unwrap();
+        let x = spd3_inverse(&m).unwrap() * g;
         let y = m.cholesky().unwrap().solve(&g);
         assert!((x - y).norm() < 1e-12 * y.norm());
         assert!((m * x - g).norm() < 1e-12);
-        // Not positive definite: no step.
-        assert!(solve_spd3(
-            &Matrix3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0),
-            &g
-        )
-        .is_none());
-        assert!(solve_spd3(&Matrix3::zeros(), &g).is_none());
+        // Not positive definite: no inverse (and no step).
+        assert!(spd3_inverse(&Matrix3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0)).is_none());
+        assert!(spd3_inverse(&Matrix3::zeros()).is_none());
     }
 
     #[test]
