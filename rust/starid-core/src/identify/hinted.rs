@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    brightness_order, return_scratch, take_scratch, validate_centroids, Identification,
+    return_scratch, take_scratch, validate_centroids, BrightnessPrefix, Identification,
     IdentifyConfig, Method, Search, Solver, Status,
 };
 use crate::attitude::triad;
@@ -50,6 +50,8 @@ struct HintBuffers {
     cand: Vec<u32>,
     near: Vec<(f64, u32)>,
     ranges: Vec<Option<(u32, u32)>>,
+    /// The spots brightest first, as far as the search asked.
+    order: Vec<usize>,
 }
 
 thread_local! {
@@ -242,6 +244,7 @@ impl Solver {
             cand,
             near,
             ranges,
+            order,
         } = &mut *bufs;
         obs.clear();
         obs.extend(
@@ -258,7 +261,7 @@ impl Solver {
                     .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
             );
         }
-        let order = brightness_order(n, magnitudes);
+        let mut order = BrightnessPrefix::new(n, magnitudes, order);
         let handedness: &[bool] = match hint.mirrored {
             Some(false) => &[false],
             Some(true) => &[true],
@@ -298,7 +301,8 @@ impl Solver {
             &cfg,
             [&obs[..], &obs_mirrored[..]],
             magnitudes,
-            &order,
+            // Only lost in space's passes read the search's order.
+            &[],
             take_scratch(),
         );
         search.method = Method::Auto;
@@ -310,7 +314,6 @@ impl Solver {
         let mags32 = self.mag_f32();
         let f = camera.focal_length_px;
         let k = n.min(HINT_SEARCH_STARS);
-        let top = &order[..k];
         let catalog = &*self.catalog;
         let cat = catalog.vectors();
         let mut found = None;
@@ -378,6 +381,7 @@ impl Solver {
                     .flat_map(|sum| (0..=sum / 2).map(move |i| (i, sum - i)))
                     .filter(|&(i, j)| i < j && j < k);
                 for (i, j) in pairs {
+                    let top = order.first(j + 1);
                     let (a_obs, b_obs) = (o[top[i]], o[top[j]]);
                     let theta = angle_between(&a_obs, &b_obs);
                     if theta < 10.0 * tol {

@@ -1695,13 +1695,7 @@ impl Solver {
 }
 
 /// The centroids brightest first (by magnitude, ties by index), or as given without magnitudes.
-pub(crate) fn brightness_order(n: usize, magnitudes: Option<&[f64]>) -> Vec<usize> {
-    let mut order = Vec::with_capacity(n);
-    brightness_order_into(n, magnitudes, &mut order);
-    order
-}
-
-/// [`brightness_order`] into `order` (cleared first): a search keeps the buffer between calls.
+/// Into `order` (cleared first): a search keeps the buffer between calls.
 pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order: &mut Vec<usize>) {
     order.clear();
     let Some(m) = magnitudes else {
@@ -1710,10 +1704,7 @@ pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order:
     };
     // Each magnitude as an integer in the order of `f64::total_cmp`: sorting (key, index) pairs
     // gives the order with ties by index, each comparison as cheap as one of integers.
-    let key = |x: f64| {
-        let b = x.to_bits() as i64;
-        b ^ ((((b >> 63) as u64) >> 1) as i64)
-    };
+    let key = magnitude_key;
     let n = m.len();
     if n <= BRIGHTNESS_INSERTION_MAX {
         // A frame of a few dozen spots: an insertion sort of the indices by key (stable, so
@@ -1740,10 +1731,70 @@ pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order:
     order.extend(keyed.into_iter().map(|(_, i)| i));
 }
 
+/// The first centroids of [`brightness_order_into`], found as they are asked for: a tracking search,
+/// which mostly verifies from its first pair of spots, needs only the brightest two. Frames of
+/// more than [`BRIGHTNESS_INSERTION_MAX`] spots are sorted whole at once.
+pub(crate) struct BrightnessPrefix<'b> {
+    /// The magnitudes as [`brightness_order_into`]'s integer keys, while spots remain to be found.
+    keys: [i64; BRIGHTNESS_INSERTION_MAX],
+    /// Spots already in `order` (bit per spot).
+    taken: u64,
+    n: usize,
+    order: &'b mut Vec<usize>,
+}
+
+impl<'b> BrightnessPrefix<'b> {
+    pub(crate) fn new(n: usize, magnitudes: Option<&[f64]>, order: &'b mut Vec<usize>) -> Self {
+        let mut keys = [0i64; BRIGHTNESS_INSERTION_MAX];
+        match magnitudes {
+            Some(m) if n <= BRIGHTNESS_INSERTION_MAX => {
+                order.clear();
+                for (k, &x) in keys.iter_mut().zip(m) {
+                    *k = magnitude_key(x);
+                }
+            }
+            // No magnitudes (the order as given), or many spots: the whole order now.
+            _ => brightness_order_into(n, magnitudes, order),
+        }
+        Self {
+            keys,
+            taken: 0,
+            n,
+            order,
+        }
+    }
+
+    /// The brightest `len` centroids (at most all), brightest first.
+    pub(crate) fn first(&mut self, len: usize) -> &[usize] {
+        let len = len.min(self.n);
+        while self.order.len() < len {
+            // The brightest spot not yet taken; ties to the lowest index, as the stable sort.
+            let mut best = usize::MAX;
+            for i in 0..self.n {
+                if self.taken & (1 << i) == 0
+                    && (best == usize::MAX || self.keys[i] < self.keys[best])
+                {
+                    best = i;
+                }
+            }
+            self.taken |= 1 << best;
+            self.order.push(best);
+        }
+        &self.order[..len]
+    }
+}
+
+/// A magnitude as an integer in the order of `f64::total_cmp`.
+#[inline]
+fn magnitude_key(x: f64) -> i64 {
+    let b = x.to_bits() as i64;
+    b ^ ((((b >> 63) as u64) >> 1) as i64)
+}
+
 /// Most centroids whose duplicates [`validate_centroids`] screens by hashing (more: by sorting).
 const DUPLICATE_HASH_MAX: usize = 256;
 
-/// Most centroids [`brightness_order`] sorts by insertion.
+/// Most centroids [`brightness_order_into`] sorts by insertion.
 const BRIGHTNESS_INSERTION_MAX: usize = 64;
 
 pub(crate) fn validate_centroids(
@@ -2182,8 +2233,26 @@ mod tests {
                 .collect();
             let mut want: Vec<usize> = (0..n).collect();
             want.sort_by(|&a, &b| m[a].total_cmp(&m[b]));
-            assert_eq!(brightness_order(n, Some(&m)), want, "n = {n}");
-            assert_eq!(brightness_order(n, None), (0..n).collect::<Vec<_>>());
+            let mut got = vec![7; 3];
+            brightness_order_into(n, Some(&m), &mut got);
+            assert_eq!(got, want, "n = {n}");
+            brightness_order_into(n, None, &mut got);
+            assert_eq!(got, (0..n).collect::<Vec<_>>());
+            // Found one at a time, the same order, asked for in any steps.
+            for mags in [Some(&m[..]), None] {
+                let mut buf = vec![7; 2];
+                let mut prefix = BrightnessPrefix::new(n, mags, &mut buf);
+                let full: Vec<usize> = match mags {
+                    Some(_) => want.clone(),
+                    None => (0..n).collect(),
+                };
+                let mut len = 0;
+                while len <= n {
+                    assert_eq!(prefix.first(len), &full[..len], "n = {n}, len = {len}");
+                    len += 1 + len % 3;
+                }
+                assert_eq!(prefix.first(n + 5), &full[..], "n = {n}");
+            }
         }
     }
 
