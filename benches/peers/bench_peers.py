@@ -289,9 +289,9 @@ def run(
                         if rnd == 0:
                             print(f"{solver.name}: {type(e).__name__}: {e}")
                         sol = None
-                    dt = time.perf_counter() - t0
-                    prev_sol, prev_dt = got[i]
-                    got[i] = (sol if rnd == 0 else prev_sol, dt if prev_dt is None else min(prev_dt, dt))
+                    elapsed = time.perf_counter() - t0
+                    prev_sol, prev = got[i]
+                    got[i] = (sol if rnd == 0 else prev_sol, elapsed if prev is None else min(prev, elapsed))
         for solver in solvers:
             out = Outcome()
             for fr, (sol, dt) in zip(sims, answers[solver.name]):
