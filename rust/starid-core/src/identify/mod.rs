@@ -1704,14 +1704,13 @@ pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order:
     };
     // Each magnitude as an integer in the order of `f64::total_cmp`: sorting (key, index) pairs
     // gives the order with ties by index, each comparison as cheap as one of integers.
-    let key = magnitude_key;
     let n = m.len();
     if n <= BRIGHTNESS_INSERTION_MAX {
         // A frame of a few dozen spots: an insertion sort of the indices by key (stable, so
         // ties keep their index order), with no allocation but the answer's.
         let mut keys = [0i64; BRIGHTNESS_INSERTION_MAX];
         for (k, &x) in keys.iter_mut().zip(m) {
-            *k = key(x);
+            *k = magnitude_key(x);
         }
         let mut idx = [0u8; BRIGHTNESS_INSERTION_MAX];
         for i in 0..n {
@@ -1726,7 +1725,11 @@ pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order:
         order.extend(idx[..n].iter().map(|&i| usize::from(i)));
         return;
     }
-    let mut keyed: Vec<(i64, usize)> = m.iter().enumerate().map(|(i, &x)| (key(x), i)).collect();
+    let mut keyed: Vec<(i64, usize)> = m
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| (magnitude_key(x), i))
+        .collect();
     keyed.sort_unstable();
     order.extend(keyed.into_iter().map(|(_, i)| i));
 }
