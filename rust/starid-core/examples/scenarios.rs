@@ -269,7 +269,7 @@ fn main() {
         let pct = |k: usize| 100.0 * k as f64 / frames as f64;
         println!(
             "{:<31} identified {:6.2} %  wrong {:.2} %  none {:6.2} %  (>=4 stars {:6.2} %)  wrong ids {}/{}  \
-             median {:7.1} us  p99 {:8.1} us  max {:8.1} us  index {:.0} ms {:.1} MB",
+             median {:7.1} us  mean {:7.1} us  p99 {:8.1} us  max {:8.1} us  index {:.0} ms {:.1} MB",
             sc.name,
             pct(ok),
             pct(wrong),
@@ -278,6 +278,7 @@ fn main() {
             wrong_ids,
             ids,
             q(0.5),
+            times.iter().sum::<f64>() / times.len().max(1) as f64 * 1e6,
             q(0.99),
             q(1.0),
             solver.build_time().as_secs_f64() * 1e3,
