@@ -348,29 +348,42 @@ fn walk_pairs(
     pairs: Pairs<'_>,
     adj: &Adjacency,
     has_partners: impl Fn(u32) -> bool,
-    (cat, [cos_lo, cos_hi], [shared, walk_other, look_other]): (
-        &[nalgebra::Vector3<f64>],
-        [f64; 2],
-        [usize; 3],
-    ),
+    geometry: Geometry<'_>,
     out: &mut Vec<[u32; 3]>,
 ) {
     for [p, q] in pairs {
         for (x, y) in [(p, q), (q, p)] {
-            if !has_partners(x) {
-                continue;
+            if has_partners(x) {
+                close_at(adj, x, y, geometry, out);
             }
-            let vy = &cat[y as usize];
-            for z in adj.partners(x) {
-                let c = vy.dot(&cat[z as usize]);
-                if c <= cos_hi && c >= cos_lo && z != y {
-                    let mut t = [0u32; 3];
-                    t[shared] = x;
-                    t[walk_other] = y;
-                    t[look_other] = z;
-                    out.push(t);
-                }
-            }
+        }
+    }
+}
+
+/// A join's catalogue vectors, closing side's cosines `[lo, hi]` and vertices `[shared, walk
+/// other, look other]`.
+type Geometry<'a> = (&'a [nalgebra::Vector3<f64>], [f64; 2], [usize; 3]);
+
+/// The triangles `(x, y, z)` of a walked pair `(x, y)`: `z` among the partners of `x` in `adj`,
+/// `y·z` within the closing side's cosines; each written with `x` at vertex `shared`, `y` at
+/// `walk_other` and `z` at `look_other`.
+#[inline(always)]
+fn close_at(
+    adj: &Adjacency,
+    x: u32,
+    y: u32,
+    (cat, [cos_lo, cos_hi], [shared, walk_other, look_other]): Geometry<'_>,
+    out: &mut Vec<[u32; 3]>,
+) {
+    let vy = &cat[y as usize];
+    for z in adj.partners(x) {
+        let c = vy.dot(&cat[z as usize]);
+        if c <= cos_hi && c >= cos_lo && z != y {
+            let mut t = [0u32; 3];
+            t[shared] = x;
+            t[walk_other] = y;
+            t[look_other] = z;
+            out.push(t);
         }
     }
 }
@@ -488,20 +501,11 @@ impl Search<'_> {
             let (at_shared, at_other) = if l0 == shared { (u, v) } else { (v, u) };
             adj.push_wanted(at_shared, at_other);
         }
+        let geometry = (cat, [cos_lo, cos_hi], [shared, walk_other, look_other]);
         for &p in &entries[ranges[walk].clone()] {
             let (u, v) = oriented(walk, p);
             let (x, y) = if w0 == shared { (u, v) } else { (v, u) };
-            let vy = &cat[y as usize];
-            for z in adj.partners(x) {
-                let c = vy.dot(&cat[z as usize]);
-                if c <= cos_hi && c >= cos_lo && z != y {
-                    let mut tri = [0u32; 3];
-                    tri[shared] = x;
-                    tri[walk_other] = y;
-                    tri[look_other] = z;
-                    out.push(tri);
-                }
-            }
+            close_at(adj, x, y, geometry, out);
         }
     }
 }
@@ -637,7 +641,8 @@ const NARROW_STARS: usize = 1 << 16;
 /// Largest catalogue whose per-star marks are bytes (16 kB, half the first-level cache); a
 /// larger one marks in bits, whose shifts cost instructions but whose kilobytes stay in the
 /// cache where 41 kB of bytes (a catalogue to magnitude 8) would not. In callgrind's cache
-/// simulation (32 kB first level, 512 kB second), against 32-bit marks: S1 (8 000 stars, 1 000
+/// simulation (32 kB first level, 512 kB second), marks alone (before the walk read them),
+/// against 32-bit marks: S1 (8 000 stars, 1 000
 /// frames) with bytes 1.07 → 0.73 million first-level misses, instructions 35.8 → 35.6
 /// million (bits: 0.58 million misses, 37.9 million instructions); K2 (41 000 stars, 300
 /// scenes) with bits 10.2 → 5.9 million first-level and 2.4 → 1.8 million second-level
@@ -685,8 +690,6 @@ pub(super) struct BitMarks([u64; NARROW_STARS / 64]);
 
 /// The marks of a narrow fill: bytes or bits (see [`BYTE_MARKS_MAX_STARS`]).
 trait Marks {
-    /// Left set after the fill (with the lists marked), for the walk.
-    const KEPT: bool;
     /// `s` is wanted.
     fn set(&mut self, s: u16);
     /// `s`, wanted, has a list now.
@@ -698,7 +701,6 @@ trait Marks {
 }
 
 impl Marks for ByteMarks {
-    const KEPT: bool = true;
     #[inline]
     fn set(&mut self, s: u16) {
         self.0[usize::from(s)] = 1;
@@ -718,7 +720,6 @@ impl Marks for ByteMarks {
 }
 
 impl Marks for BitMarks {
-    const KEPT: bool = false;
     #[inline]
     fn set(&mut self, s: u16) {
         self.0[usize::from(s >> 6)] |= 1 << (s & 63);
@@ -810,6 +811,11 @@ impl Adjacency {
                 .take()
                 .unwrap_or_else(|| Box::new(BitMarks([0; NARROW_STARS / 64])));
             self.fill_narrow_with(&mut *marks, pairs, wanted);
+            // Bit marks are not kept for the walk (see `bytes_live`).
+            for &[p, q] in wanted {
+                marks.clear(p);
+                marks.clear(q);
+            }
             self.narrow_bits = Some(marks);
         } else {
             let mut marks = self
@@ -860,12 +866,6 @@ impl Adjacency {
             }
             if wq {
                 push(marks, q, p);
-            }
-        }
-        if !M::KEPT {
-            for &[p, q] in wanted {
-                marks.clear(p);
-                marks.clear(q);
             }
         }
     }
