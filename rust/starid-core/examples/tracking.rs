@@ -400,7 +400,7 @@ fn main() {
                                 catalog.mag()[*t as usize]
                             );
                         }
-                        println!("  wrong: frame {i} mode {:?} spot {o} truth {:?} got {star} (mag {:.2}, imaged elsewhere {imaged}) spot mag {:.2} residual {:.1}\" matched {} of {} spots radius {:.1}\"", step.mode, b, catalog.mag()[star], f.frame.magnitudes[o], id.residuals_rad[o].to_degrees()*3600.0, id.matched, f.frame.centroids.len(), id.match_radius_rad.to_degrees()*3600.0);
+                        println!("  wrong: frame {i} mode {:?} spot {o} truth {:?} got {star} (mag {:.2}, imaged elsewhere {imaged}) spot mag {:.2} residual {:.1}\" matched {} of {} spots radius {:.1}\" sigma {:.2} px", step.mode, b, catalog.mag()[star], f.frame.magnitudes[o], id.residuals_rad[o].to_degrees()*3600.0, id.matched, f.frame.centroids.len(), id.match_radius_rad.to_degrees()*3600.0, id.centroid_sigma_px);
                     }
                 }
             }

@@ -8,6 +8,14 @@
 //! hint cannot explain are identified lost in space (which also catches a wrong prediction:
 //! no wrong hint can verify a wrong identification); frames nothing identifies leave the
 //! prediction coasting at the last rate.
+//!
+//! A tracking solution's names then pass rules that need the frames before, or evidence a
+//! single verification does not weigh, and that only ever unname: stars unseen by the last
+//! solutions, or of a magnitude the camera rarely detects, wait for a second frame in a row
+//! ([`TrackerConfig::confirm_unseen_frames`]); a star that the solution fitted without its spot
+//! places off the sensor keeps no spot far from it ([`OFF_SENSOR_SIGMAS`]); and with
+//! magnitudes, a spot that fits a neighbouring star (or a neighbouring spot its star)
+//! decisively better by brightness is not named ([`MAG_RIVAL_LOG_ODDS`]).
 
 use nalgebra::{Rotation3, Vector3};
 
@@ -72,8 +80,10 @@ pub struct TrackerConfig {
     /// land on it again in the next frame. A star that no solution named since it came well
     /// inside is held so after [`CONFIRM_NEVER_NAMED_FRAMES`] of them; stars that entered the
     /// field lately, or that were named in the last of those solutions, are named at once.
-    /// `None` turns it off; ignored when `confirm_new_stars` is on. Default
-    /// [`CONFIRM_UNSEEN_FRAMES`].
+    /// A star in a magnitude range the camera rarely detects (learned from the solutions: see
+    /// [`RARELY_SEEN_FRACTION`]) is held in the same way unless the last solution named it, even
+    /// before any solution had it unseen. `None` turns it off; ignored when `confirm_new_stars`
+    /// is on. Default [`CONFIRM_UNSEEN_FRAMES`].
     pub confirm_unseen_frames: Option<u32>,
 }
 
@@ -105,6 +115,51 @@ pub const CONFIRM_NEVER_NAMED_FRAMES: u32 = 3;
 /// ids instead of 16 for 2 fewer real stars named (2 px: 13, for 6), false spots on faint stars
 /// that sat between 4 and 8 px from an edge.
 pub const CONFIRM_MARGIN_PX: f64 = 4.0;
+
+/// With [`TrackerConfig::confirm_unseen_frames`] on, a star in a magnitude range the camera has
+/// detected in fewer than this fraction of the solutions that had such stars well inside the
+/// sensor is held, as an unseen one is, unless the last solution named it: a false spot on a
+/// star past the camera's limit, which the first frames after it enters the field cannot yet
+/// call unseen. The tracker learns the fractions from its solutions, in
+/// [`COMPLETENESS_BIN_MAG`] bins of catalogue magnitude.
+pub const RARELY_SEEN_FRACTION: f64 = 0.2;
+
+/// In tracking mode, a spot named after a star whose magnitude (after the frame's zero point)
+/// fits another catalogue star within the match radius, one the camera detects, this many
+/// natural-log units likelier (under Gaussian scatter of the frame's spread) is not named: the
+/// two stars of a close pair swapped by noise, or a false spot beside a brighter star.
+pub const MAG_RIVAL_LOG_ODDS: f64 = 2.995_732_273_553_991;
+
+/// How far from a spot, in match radii, the rival test ([`MAG_RIVAL_LOG_ODDS`]) looks for rival
+/// stars: a smeared frame's noise along its motion carries spots past the radius.
+pub const MAG_RIVAL_REACH: f64 = 2.0;
+
+/// In tracking mode, a star that the solution fitted without its spot places off the sensor is
+/// not named when its spot lies more than this many times the frame's centroid noise from it:
+/// off the sensor, a star's own spot lies inside only by its noise, near the edge, and the star's
+/// own spot is missing more often than not, so that a false spot near the edge takes its place.
+pub const OFF_SENSOR_SIGMAS: f64 = 2.0;
+
+/// Fewest kept zero points whose median spread the rival test ([`MAG_RIVAL_LOG_ODDS`]) uses
+/// instead of the frame's own.
+const TYPICAL_SPREAD_MIN_FRAMES: usize = 3;
+
+/// Smallest magnitude spread the rival test ([`MAG_RIVAL_LOG_ODDS`]) assumes, mag.
+pub const MAG_RIVAL_MIN_SPREAD: f64 = 0.05;
+
+/// Stars a magnitude bin must have counted before [`RARELY_SEEN_FRACTION`] applies to it.
+pub const RARELY_SEEN_MIN_COUNT: u32 = 50;
+
+/// Width of the tracker's catalogue magnitude bins, mag.
+pub const COMPLETENESS_BIN_MAG: f64 = 0.1;
+
+/// The bins cover catalogue magnitudes from this one (brighter stars share the first bin) up
+/// [`COMPLETENESS_BINS`] bins (fainter ones share the last).
+const COMPLETENESS_MAG_MIN: f64 = -2.0;
+const COMPLETENESS_BINS: usize = 150;
+
+/// A bin's counts are halved when it has counted this many stars: recent frames weigh more.
+const COMPLETENESS_COUNT_CAP: u32 = 4096;
 
 impl Default for TrackerConfig {
     fn default() -> Self {
@@ -165,6 +220,10 @@ pub struct Tracker {
     /// the frames that follow are searched with the one they agree on, as a batch's are, where
     /// the configured `mag_offset` is `None` or disagrees. Kept across `reset`: it is the camera's.
     zero_points: std::collections::VecDeque<(f64, f64)>,
+    /// Per catalogue magnitude bin ([`COMPLETENESS_BIN_MAG`]), the stars the solutions had well
+    /// inside the sensor: how many were matched, and how many in all. Kept across `reset`: it
+    /// is the camera's.
+    completeness: Vec<[u32; 2]>,
 }
 
 /// What a focal check found of the camera a [`Tracker`] was given.
@@ -229,6 +288,7 @@ impl Tracker {
             held: Vec::new(),
             focal: None,
             zero_points: std::collections::VecDeque::new(),
+            completeness: vec![[0, 0]; COMPLETENESS_BINS],
         })
     }
 
@@ -393,7 +453,10 @@ impl Tracker {
             mode == TrackMode::Tracking,
             continuous,
         ) {
-            self.hold_unseen(&mut id, k, &mut held_now);
+            self.hold_unseen(&mut id, k, solver, &mut held_now);
+        }
+        if mode == TrackMode::Tracking {
+            self.unname_doubtful(&mut id, solver, camera, centroids, magnitudes);
         }
         if let (true, Some(r)) = (id.is_identified(), id.r_icrs_to_cam) {
             // A lock on the other handedness, or after a long gap, starts a new history.
@@ -420,14 +483,14 @@ impl Tracker {
                 }
             }
             self.last = Some((t_s, r, id.mirrored));
-            self.named = named_now;
             if self.config.confirm_unseen_frames.is_some() {
                 if gap {
                     self.unseen.clear();
                 }
-                self.count_unseen(&id, solver, camera, &r);
+                self.count_unseen(&id, &named_now, solver, camera, &r);
                 self.held = held_now;
             }
+            self.named = named_now;
         }
         Ok(TrackStep {
             mode,
@@ -455,12 +518,22 @@ impl Tracker {
     /// them since they came well inside), unless the last frame matched them too (they are in
     /// `self.held`); the ones unnamed go to `held_now` (see
     /// [`TrackerConfig::confirm_unseen_frames`]).
-    fn hold_unseen(&self, id: &mut Identification, k: u32, held_now: &mut Vec<u32>) {
+    fn hold_unseen(
+        &self,
+        id: &mut Identification,
+        k: u32,
+        solver: &Solver,
+        held_now: &mut Vec<u32>,
+    ) {
+        let mag = solver.catalog().mag();
         let mut dropped = 0;
         for (o, m) in id.catalog_index.iter_mut().enumerate() {
             let Some(star) = *m else { continue };
             let (streak, fresh) = self.entry(star).unwrap_or((0, false));
-            let suspect = streak >= k || (fresh && streak >= k.min(CONFIRM_NEVER_NAMED_FRAMES));
+            let suspect = streak >= k
+                || (fresh && streak >= k.min(CONFIRM_NEVER_NAMED_FRAMES))
+                || (self.rarely_seen(mag[star as usize])
+                    && self.confirmed.binary_search(&star).is_err());
             if suspect && self.held.binary_search(&star).is_err() {
                 *m = None;
                 id.residuals_rad[o] = f64::NAN;
@@ -475,31 +548,190 @@ impl Tracker {
     /// The stars the solution `r` has well inside the sensor without naming them, with the
     /// solutions in a row that did so and whether any named them since they came well inside
     /// (a star not in the list was either named by the last solution or is new there).
+    /// Also counts the field's stars in [`Self::completeness`] (`matched`: the stars matched
+    /// before any hold, sorted).
     fn count_unseen(
         &mut self,
         id: &Identification,
+        matched: &[u32],
         solver: &Solver,
         camera: &Camera,
         r: &Rotation3<f64>,
     ) {
         let catalog = solver.catalog();
-        let cat = catalog.vectors();
+        let (cat, mag) = (catalog.vectors(), catalog.mag());
         let mut named: Vec<u32> = id.catalog_index.iter().flatten().copied().collect();
         named.sort_unstable();
         let mut unseen = Vec::new();
         let boresight = r.inverse_transform_vector(&Vector3::z());
+        let mut completeness = std::mem::take(&mut self.completeness);
         catalog.for_each_in_cone(&boresight, 0.5 * camera.diagonal_fov_rad(), |star, _| {
-            if named.binary_search(&star).is_err() && well_inside(camera, &(r * cat[star as usize]))
-            {
+            if !well_inside(camera, &(r * cat[star as usize])) {
+                return;
+            }
+            count_bin(
+                &mut completeness,
+                mag[star as usize],
+                matched.binary_search(&star).is_ok(),
+            );
+            if named.binary_search(&star).is_err() {
                 let (streak, fresh) = self
                     .entry(star)
                     .unwrap_or_else(|| (0, self.confirmed.binary_search(&star).is_err()));
                 unseen.push((star, streak.saturating_add(1), fresh));
             }
         });
+        self.completeness = completeness;
         unseen.sort_unstable_by_key(|u| u.0);
         self.unseen = unseen;
         self.confirmed = named;
+    }
+
+    /// The median magnitude spread of the kept zero points ([`Identification::zero_point`]),
+    /// when there are at least [`TYPICAL_SPREAD_MIN_FRAMES`].
+    fn typical_spread(&self) -> Option<f64> {
+        if self.zero_points.len() < TYPICAL_SPREAD_MIN_FRAMES {
+            return None;
+        }
+        let mut s: Vec<f64> = self.zero_points.iter().map(|z| z.1).collect();
+        Some(crate::identify::median_in_place(&mut s))
+    }
+
+    /// Whether stars of catalogue magnitude `mag` are ones the camera rarely detects (see
+    /// [`RARELY_SEEN_FRACTION`]); `false` while their bin has counted too few.
+    fn rarely_seen(&self, mag: f64) -> bool {
+        let [seen, total] = self.completeness[completeness_bin(mag)];
+        total >= RARELY_SEEN_MIN_COUNT && f64::from(seen) < RARELY_SEEN_FRACTION * f64::from(total)
+    }
+
+    /// Unname, in a tracking solution, the matches of stars the solution places off the sensor
+    /// (see [`OFF_SENSOR_SIGMAS`]), and with magnitudes, those whose spot's magnitude fits a
+    /// rival decisively better (see [`MAG_RIVAL_LOG_ODDS`]).
+    fn unname_doubtful(
+        &self,
+        id: &mut Identification,
+        solver: &Solver,
+        camera: &Camera,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+    ) {
+        let Some(r) = id.r_icrs_to_cam else {
+            return;
+        };
+        let catalog = solver.catalog();
+        let (cat, mag) = (catalog.vectors(), catalog.mag());
+        let n = id.catalog_index.len();
+        let sigma = id.centroid_sigma_px / camera.focal_length_px;
+        let mut drop = vec![false; n];
+        let dirs: Vec<Vector3<f64>> = centroids
+            .iter()
+            .map(|&[x, y]| camera.pixel_to_cam(x, y, id.mirrored))
+            .collect();
+        let (w, h) = (camera.width_px, camera.height_px);
+        let off = |p: Option<(f64, f64)>| {
+            p.is_none_or(|(x, y)| !(0.0..=w).contains(&x) || !(0.0..=h).contains(&y))
+        };
+        let near_edge = |p: Option<(f64, f64)>, margin: f64| {
+            p.is_none_or(|(x, y)| x.min(y).min(w - x).min(h - y) < margin)
+        };
+        let edge_margin = OFF_SENSOR_SIGMAS * id.centroid_sigma_px;
+        let (mut obs, mut refs) = (Vec::new(), Vec::new());
+        for (o, m) in id.catalog_index.iter().enumerate() {
+            let Some(star) = *m else { continue };
+            let v = cat[star as usize];
+            if !near_edge(camera.cam_to_pixel(&(r * v)), edge_margin) {
+                continue;
+            }
+            // Off the sensor, a star's own spot lies inside only by its noise, near the edge. The
+            // attitude is fitted without the spot: a false one pulls the fit its way.
+            obs.clear();
+            refs.clear();
+            for (p, q) in id.catalog_index.iter().enumerate() {
+                if let (Some(s), true) = (*q, p != o) {
+                    obs.push(dirs[p]);
+                    refs.push(cat[s as usize]);
+                }
+            }
+            let Some(r_without) = (obs.len() >= 3)
+                .then(|| crate::attitude::wahba_from(&obs, &refs, &r))
+                .flatten()
+            else {
+                continue;
+            };
+            let predicted = r_without * v;
+            drop[o] = off(camera.cam_to_pixel(&predicted))
+                && dirs[o].angle(&predicted) > OFF_SENSOR_SIGMAS * sigma;
+        }
+        // The frame's zero point and spread, for the rival tests.
+        let zero = magnitudes
+            .filter(|m| m.len() == n)
+            .and_then(|m| id.zero_point(m, catalog))
+            .filter(|_| id.match_radius_rad.is_finite() && id.match_radius_rad > 0.0);
+        if let (Some((z, spread)), Some(mags)) = (zero, magnitudes) {
+            // The spread the last solutions measured, where there are enough of them: a frame's
+            // own, from a dozen stars, is rough.
+            let spread = self
+                .typical_spread()
+                .unwrap_or(spread)
+                .max(MAG_RIVAL_MIN_SPREAD);
+            let chi = |o: usize, k: u32| ((mags[o] - z - mag[k as usize]) / spread).powi(2);
+            let decisive = 2.0 * MAG_RIVAL_LOG_ODDS;
+            let reach = MAG_RIVAL_REACH * id.match_radius_rad;
+            let reach_r = crate::sky::Radius::new(reach);
+            let mut named: Vec<(u32, usize)> = id
+                .catalog_index
+                .iter()
+                .enumerate()
+                .filter_map(|(o, m)| m.map(|s| (s, o)))
+                .collect();
+            named.sort_unstable();
+            let spot_of = |star: u32| {
+                named
+                    .binary_search_by_key(&star, |x| x.0)
+                    .ok()
+                    .map(|i| named[i].1)
+            };
+            let dirs: Vec<Vector3<f64>> =
+                dirs.iter().map(|d| r.inverse_transform_vector(d)).collect();
+            for &(star, o) in &named {
+                let own = chi(o, star);
+                // A swap's two misfits add up to the margin: one of them is half of it.
+                if own < 0.5 * decisive {
+                    continue;
+                }
+                // A rival star nearby that the spot fits better; when another spot holds it,
+                // the two spots' names swapped.
+                catalog.for_each_near(&dirs[o], reach_r, |other, _, _| {
+                    if other == star || self.rarely_seen(mag[other as usize]) {
+                        return;
+                    }
+                    match spot_of(other) {
+                        Some(p) => {
+                            if own + chi(p, other) - chi(o, other) - chi(p, star) >= decisive {
+                                drop[o] = true;
+                                drop[p] = true;
+                            }
+                        }
+                        None => drop[o] |= own - chi(o, other) >= decisive,
+                    }
+                });
+                // A rival spot, unnamed, about as near the star, that fits it better.
+                if own >= decisive {
+                    let v = cat[star as usize];
+                    drop[o] |= (0..n).any(|p| {
+                        id.catalog_index[p].is_none()
+                            && dirs[p].dot(&v) >= reach_r.cos()
+                            && own - chi(p, star) >= decisive
+                    });
+                }
+            }
+        }
+        for (o, d) in drop.into_iter().enumerate() {
+            if d && id.catalog_index[o].take().is_some() {
+                id.residuals_rad[o] = f64::NAN;
+                id.matched -= 1;
+            }
+        }
     }
 
     /// `star`'s entry in `self.unseen`: the solutions in a row that had it well inside the sensor
@@ -536,6 +768,25 @@ impl Tracker {
         }
         id.matched -= dropped;
     }
+}
+
+/// The [`Tracker::completeness`] bin of catalogue magnitude `mag`.
+fn completeness_bin(mag: f64) -> usize {
+    let k = ((mag - COMPLETENESS_MAG_MIN) / COMPLETENESS_BIN_MAG).floor();
+    if k.is_nan() {
+        return 0;
+    }
+    (k.max(0.0) as usize).min(COMPLETENESS_BINS - 1)
+}
+
+/// Count a star of catalogue magnitude `mag`, `matched` or not, in its bin.
+fn count_bin(completeness: &mut [[u32; 2]], mag: f64, matched: bool) {
+    let bin = &mut completeness[completeness_bin(mag)];
+    if bin[1] >= COMPLETENESS_COUNT_CAP {
+        *bin = [bin[0] / 2, bin[1] / 2];
+    }
+    bin[0] += u32::from(matched);
+    bin[1] += 1;
 }
 
 /// Whether the camera-frame direction `v` falls on the sensor at least [`CONFIRM_MARGIN_PX`] from

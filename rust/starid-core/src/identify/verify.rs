@@ -929,7 +929,7 @@ pub(super) fn unambiguous_nearest(
 /// The median of `v` (reordered): the middle value, for an even count the mean of the two middle
 /// ones; by insertion sort up to [`MEDIAN_INSERTION_MAX`] values, else by selection with no full
 /// sort. `v` must not be empty.
-pub(super) fn median_in_place(v: &mut [f64]) -> f64 {
+pub(crate) fn median_in_place(v: &mut [f64]) -> f64 {
     let k = v.len();
     if k <= MEDIAN_INSERTION_MAX {
         // A few dozen values (the matches of a frame): sorted by insertion, cheaper than a

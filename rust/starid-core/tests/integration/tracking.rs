@@ -377,3 +377,250 @@ fn a_false_spot_just_nearer_a_star_than_its_smeared_spot_does_not_take_its_name(
     }
     panic!("only {tried} frames had a lone star to displace");
 }
+
+/// Whether pixel `p` lies at least `margin` px inside the 512 px sensor.
+fn inside_by(p: Option<[f64; 2]>, margin: f64) -> bool {
+    p.is_some_and(|[x, y]| {
+        (margin..512.0 - margin).contains(&x) && (margin..512.0 - margin).contains(&y)
+    })
+}
+
+#[test]
+fn a_false_spot_on_a_star_past_the_cameras_limit_is_held_even_as_the_star_enters() {
+    // A star just past the camera's limit that has only now come inside: no frame has had it
+    // unseen yet, but the tracker has counted how rarely stars of its magnitude are matched.
+    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let limit = 6.0;
+    let seq = simulate_sequence(
+        &cat,
+        &cam,
+        &SequenceConfig {
+            frames: 200,
+            rate_rad_s: 2f64.to_radians(),
+            frame: SimConfig {
+                mag_limit: Some(limit),
+                noise_px: 0.2,
+                mag_noise: 0.05,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        21,
+    )
+    .unwrap();
+    // From frame 30 on, every second frame: a faint star 6 px or more inside that the frame
+    // before had within 4 px of an edge or off the sensor.
+    let entering = |i: usize| -> Option<u32> {
+        (i >= 30 && i % 2 == 0).then_some(())?;
+        (0..cat.len() as u32).find(|&s| {
+            cat.mag()[s as usize] > limit + 0.15
+                && inside_by(pixel_of(&seq[i].frame, s, &cam), 6.0)
+                && !inside_by(pixel_of(&seq[i - 1].frame, s, &cam), 4.0)
+        })
+    };
+    let targets: Vec<Option<u32>> = (0..seq.len()).map(entering).collect();
+    let run = |config: TrackerConfig| -> Vec<Option<u32>> {
+        let mut tracker = Tracker::new(config, IdentifyConfig::default()).unwrap();
+        let mut named = Vec::new();
+        for (f, target) in seq.iter().zip(&targets) {
+            let mut frame = f.frame.clone();
+            let spot = target.map(|s| spot_on(&mut frame, s, &cam));
+            let step = tracker
+                .update(
+                    solver,
+                    &frame.centroids,
+                    Some(&frame.magnitudes),
+                    &cam,
+                    f.t_s,
+                )
+                .unwrap();
+            assert!(step.identification.is_identified());
+            if let Some(o) = spot {
+                named.push(step.identification.catalog_index[o]);
+            }
+        }
+        named
+    };
+    let cases = targets.iter().flatten().count();
+    assert!(cases >= 5, "{cases} entering faint stars");
+    // Without the rules the false spots are named after the faint stars: the case is real.
+    let off = run(TrackerConfig {
+        confirm_unseen_frames: None,
+        ..TrackerConfig::default()
+    });
+    assert_eq!(
+        off,
+        targets
+            .iter()
+            .flatten()
+            .map(|&s| Some(s))
+            .collect::<Vec<_>>()
+    );
+    let on = run(TrackerConfig::default());
+    assert_eq!(on, vec![None; cases]);
+}
+
+#[test]
+fn a_false_spot_inside_the_edge_does_not_take_the_name_of_a_star_just_off_it() {
+    // The star's own spot fell off the sensor; a false spot of its brightness lies 2.2 px inward
+    // from it (0.7 to 1.9 px inside the edge), within the match radius of a 0.5 px frame.
+    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let seq = simulate_sequence(
+        &cat,
+        &cam,
+        &SequenceConfig {
+            frames: 150,
+            rate_rad_s: 1f64.to_radians(),
+            frame: SimConfig {
+                mag_limit: Some(6.0),
+                noise_px: 0.5,
+                mag_noise: 0.05,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        5,
+    )
+    .unwrap();
+    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let mut cases = 0;
+    for (i, f) in seq.iter().enumerate() {
+        let mut frame = f.frame.clone();
+        // A star 0.3 to 1.5 px off one edge, not imaged: the false spot lies 2.2 px inward.
+        let target = (i >= 5)
+            .then(|| {
+                (0..cat.len() as u32)
+                    .filter(|&s| {
+                        cat.mag()[s as usize] < 5.8 && !frame.catalog_index.contains(&Some(s))
+                    })
+                    .find_map(|s| {
+                        let [x, y] = pixel_of(&frame, s, &cam)?;
+                        let inward = |v: f64| {
+                            if (-1.5..-0.3).contains(&v) {
+                                Some(v + 2.2)
+                            } else if (512.3..513.5).contains(&v) {
+                                Some(v - 2.2)
+                            } else {
+                                None
+                            }
+                        };
+                        let along = |v: f64| (20.0..492.0).contains(&v);
+                        match (inward(x), inward(y)) {
+                            (Some(x), None) if along(y) => Some((s, [x, y])),
+                            (None, Some(y)) if along(x) => Some((s, [x, y])),
+                            _ => None,
+                        }
+                    })
+            })
+            .flatten();
+        let spot = target.map(|(s, p)| {
+            frame.centroids.push(p);
+            frame.magnitudes.push(cat.mag()[s as usize]);
+            frame.catalog_index.push(None);
+            frame.centroids.len() - 1
+        });
+        let step = tracker
+            .update(
+                solver,
+                &frame.centroids,
+                Some(&frame.magnitudes),
+                &cam,
+                f.t_s,
+            )
+            .unwrap();
+        assert!(step.identification.is_identified(), "frame {i}");
+        if let Some(o) = spot {
+            cases += 1;
+            let id = &step.identification;
+            let star = target.unwrap().0;
+            let r = id.r_icrs_to_cam.unwrap();
+            eprintln!("frame {i} got {:?} residual {:.2} px sigma {:.2} radius {:.2} solution puts it {:?} spot {:?} truth {:?}", id.catalog_index[o], id.residuals_rad[o]*cam.focal_length_px, id.centroid_sigma_px, id.match_radius_rad*cam.focal_length_px, cam.cam_to_pixel(&(r*cat.vectors()[star as usize])), frame.centroids[o], pixel_of(&frame, star, &cam));
+            assert_eq!(step.identification.catalog_index[o], None, "frame {i}");
+        }
+    }
+    assert!(cases >= 5, "{cases} stars just off an edge");
+}
+
+#[test]
+fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_magnitudes_say_so() {
+    // Two stars 1 to 2 px apart whose magnitudes differ by 0.4 or more: each spot lies on the
+    // other star (as smear along their line can put it, in a frame whose other stars are sharp).
+    // Positions name them crosswise; their magnitudes say which is which; the tracker names
+    // neither wrongly.
+    use nalgebra::{Rotation3, Vector3};
+    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let px = 12f64.to_radians() / 512.0;
+    let v = cat.vectors();
+    let m = cat.mag();
+    let (a, b) = (0..cat.len())
+        .filter(|&a| m[a] < 5.7)
+        .find_map(|a| {
+            (a + 1..cat.len())
+                .find(|&b| {
+                    m[b] < 5.7
+                        && (m[a] - m[b]).abs() >= 0.4
+                        && v[a].angle(&v[b]) < 2.0 * px
+                        && v[a].angle(&v[b]) > 1.0 * px
+                })
+                .map(|b| (a as u32, b as u32))
+        })
+        .expect("a close pair in the bundled catalogue");
+    let centre = (v[a as usize] + v[b as usize]).normalize();
+    let r0 = Rotation3::rotation_between(&centre, &Vector3::z()).unwrap();
+    let seq = simulate_sequence(
+        &cat,
+        &cam,
+        &SequenceConfig {
+            frames: 20,
+            rate_rad_s: 0.1f64.to_radians(),
+            frame: SimConfig {
+                r_icrs_to_cam: Some(r0),
+                mag_limit: Some(6.0),
+                noise_px: 0.2,
+                mag_noise: 0.05,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        3,
+    )
+    .unwrap();
+    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let mut swapped = 0;
+    for (i, f) in seq.iter().enumerate() {
+        let mut frame = f.frame.clone();
+        let (Some(oa), Some(ob)) = (
+            frame.catalog_index.iter().position(|&c| c == Some(a)),
+            frame.catalog_index.iter().position(|&c| c == Some(b)),
+        ) else {
+            continue;
+        };
+        if i >= 5 {
+            frame.centroids.swap(oa, ob);
+            frame.magnitudes.swap(oa, ob);
+            frame.catalog_index.swap(oa, ob);
+            // Each spot at the other star's place, with its own magnitude.
+            frame.magnitudes.swap(oa, ob);
+            frame.catalog_index.swap(oa, ob);
+        }
+        let id = tracker
+            .update(
+                solver,
+                &frame.centroids,
+                Some(&frame.magnitudes),
+                &cam,
+                f.t_s,
+            )
+            .unwrap()
+            .identification;
+        assert!(id.is_identified(), "frame {i}");
+        for (got, want) in id.catalog_index.iter().zip(&frame.catalog_index) {
+            assert!(
+                got.is_none() || got == want,
+                "frame {i}: {got:?} for {want:?}"
+            );
+        }
+        swapped += usize::from(i >= 5);
+    }
+    assert!(swapped >= 10);
+}
