@@ -14,6 +14,7 @@
 //! `confirm_unseen_frames` K, 0 for off; `STARID_SEQ_SEED=N`: another set of sequences;
 //! `STARID_MAG_ZERO=Z`: the sequences' magnitudes Z mag off the catalogue's system (an
 //! instrument's), learned by the tracker unless `STARID_NO_LEARN=1`;
+//! `STARID_SEQ_ORDER=1`: the sequences' spots brightest first, without magnitudes;
 //! `STARID_WRONG=1`: list the wrong ids; `STARID_MISSED=1`: the real stars left unnamed, with where the
 //! solution puts their star; `STARID_REPEAT=R`: part 1 times each frame R more times and keeps its
 //! fastest; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
@@ -44,6 +45,18 @@ fn wrong(id: &Identification, f: &SimFrame) -> usize {
         .zip(&f.catalog_index)
         .filter(|(a, b)| a.is_some() && a != b)
         .count()
+}
+
+/// The frame's spots brightest first (its truth in the same order).
+fn brightest_first(f: &SimFrame) -> SimFrame {
+    let mut order: Vec<usize> = (0..f.centroids.len()).collect();
+    order.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+    SimFrame {
+        centroids: order.iter().map(|&k| f.centroids[k]).collect(),
+        magnitudes: order.iter().map(|&k| f.magnitudes[k]).collect(),
+        catalog_index: order.iter().map(|&k| f.catalog_index[k]).collect(),
+        ..f.clone()
+    }
 }
 
 fn offset(rng: &mut impl Rng, angle: f64) -> Rotation3<f64> {
@@ -265,6 +278,7 @@ fn main() {
     let (mut all_right, mut all_real) = (0usize, 0usize);
     let mut times = Vec::new();
     // STARID_SEQ_SEED: the first sequence's seed (default 100), for a second set of sequences.
+    let order_only = std::env::var("STARID_SEQ_ORDER").is_ok();
     let seq_seed: u64 =
         std::env::var("STARID_SEQ_SEED").map_or(100, |v| v.parse().expect("STARID_SEQ_SEED"));
     for (k, rate_deg) in [0.1f64, 0.5, 1.0, 2.0, 5.0].into_iter().enumerate() {
@@ -308,62 +322,66 @@ fn main() {
         let (right_before, real_before) = (all_right, all_real);
         let mut regained = None;
         for (i, f) in seq.iter().enumerate() {
-            let mags: Vec<f64> = f.frame.magnitudes.iter().map(|m| m + zero).collect();
+            // STARID_SEQ_ORDER=1: the spots brightest first, without their magnitudes.
+            let sorted;
+            let fr: &SimFrame = if order_only {
+                sorted = brightest_first(&f.frame);
+                &sorted
+            } else {
+                &f.frame
+            };
+            let mags: Vec<f64> = fr.magnitudes.iter().map(|m| m + zero).collect();
             let t = Instant::now();
             let step = tracker
-                .update(&solver, &f.frame.centroids, Some(&mags), &cam, f.t_s)
+                .update(
+                    &solver,
+                    &fr.centroids,
+                    (!order_only).then_some(&mags[..]),
+                    &cam,
+                    f.t_s,
+                )
                 .expect("update");
             times.push(t.elapsed().as_secs_f64());
             if seq_cfg.blank.contains(&i) {
-                bad += wrong(&step.identification, &f.frame);
+                bad += wrong(&step.identification, fr);
                 continue;
             }
             n += 1;
             let id = &step.identification;
             ok += usize::from(id.is_identified());
             track += usize::from(id.is_identified() && step.mode == TrackMode::Tracking);
-            bad += wrong(id, &f.frame);
+            bad += wrong(id, fr);
             all_right += id
                 .catalog_index
                 .iter()
-                .zip(&f.frame.catalog_index)
+                .zip(&fr.catalog_index)
                 .filter(|(a, b)| a.is_some() && a == b)
                 .count();
-            all_real += f.frame.real_stars();
-            if !id.is_identified() && f.frame.real_stars() >= 2 {
+            all_real += fr.real_stars();
+            if !id.is_identified() && fr.real_stars() >= 2 {
                 unid_real += 1;
             }
             if std::env::var("STARID_MISSED").is_ok() && id.is_identified() {
                 // Real stars left unnamed: where the solution puts their star, in pixels.
                 let r = id.r_icrs_to_cam.expect("identified");
-                for (o, (got, want)) in id
-                    .catalog_index
-                    .iter()
-                    .zip(&f.frame.catalog_index)
-                    .enumerate()
-                {
+                for (o, (got, want)) in id.catalog_index.iter().zip(&fr.catalog_index).enumerate() {
                     if let (None, Some(star)) = (got, want) {
                         let v = r * catalog.vectors()[*star as usize];
                         if let Some((mut x, y)) = cam.cam_to_pixel(&v) {
                             if id.mirrored {
                                 x = cam.width_px - x;
                             }
-                            let [cx, cy] = f.frame.centroids[o];
-                            println!("  missed: rate {rate_deg} frame {i} star {star} mag {:.2} offset ({:.2}, {:.2}) px |{:.2}| radius {:.2} px sigma {:.2} px at ({cx:.0}, {cy:.0}) matched {} of {}", catalog.mag()[*star as usize], cx - x, cy - y, ((cx - x).powi(2) + (cy - y).powi(2)).sqrt(), id.match_radius_rad * cam.focal_length_px, id.centroid_sigma_px, id.matched, f.frame.centroids.len());
+                            let [cx, cy] = fr.centroids[o];
+                            println!("  missed: rate {rate_deg} frame {i} star {star} mag {:.2} offset ({:.2}, {:.2}) px |{:.2}| radius {:.2} px sigma {:.2} px at ({cx:.0}, {cy:.0}) matched {} of {}", catalog.mag()[*star as usize], cx - x, cy - y, ((cx - x).powi(2) + (cy - y).powi(2)).sqrt(), id.match_radius_rad * cam.focal_length_px, id.centroid_sigma_px, id.matched, fr.centroids.len());
                         }
                     }
                 }
             }
-            if std::env::var("STARID_WRONG").is_ok() && wrong(id, &f.frame) > 0 {
-                for (o, (a, b)) in id
-                    .catalog_index
-                    .iter()
-                    .zip(&f.frame.catalog_index)
-                    .enumerate()
-                {
+            if std::env::var("STARID_WRONG").is_ok() && wrong(id, fr) > 0 {
+                for (o, (a, b)) in id.catalog_index.iter().zip(&fr.catalog_index).enumerate() {
                     if a.is_some() && a != b {
                         let star = a.unwrap() as usize;
-                        let imaged = f.frame.catalog_index.contains(&Some(star as u32));
+                        let imaged = fr.catalog_index.contains(&Some(star as u32));
                         let r = id.r_icrs_to_cam.expect("identified");
                         let pv = cam
                             .cam_to_pixel(&(r * catalog.vectors()[star]))
@@ -374,9 +392,8 @@ fn main() {
                                     (x, y)
                                 }
                             });
-                        let [sx, sy] = f.frame.centroids[o];
-                        let tv =
-                            cam.cam_to_pixel(&(f.frame.r_icrs_to_cam * catalog.vectors()[star]));
+                        let [sx, sy] = fr.centroids[o];
+                        let tv = cam.cam_to_pixel(&(fr.r_icrs_to_cam * catalog.vectors()[star]));
                         println!("    spot at ({sx:.1}, {sy:.1}) px; the star where the solution puts it {pv:?}, where it truly is {tv:?}");
                         if let Some(q) = f
                             .frame
@@ -386,41 +403,40 @@ fn main() {
                         {
                             println!(
                                 "    the star's own spot {q} at {:?} named {:?}, residual {:.1}\"",
-                                f.frame.centroids[q],
+                                fr.centroids[q],
                                 id.catalog_index[q],
                                 id.residuals_rad[q].to_degrees() * 3600.0
                             );
                         }
                         if let Some(t) = b {
-                            let tp = cam.cam_to_pixel(
-                                &(f.frame.r_icrs_to_cam * catalog.vectors()[*t as usize]),
-                            );
+                            let tp = cam
+                                .cam_to_pixel(&(fr.r_icrs_to_cam * catalog.vectors()[*t as usize]));
                             println!(
                                 "    this spot's star {t} truly at {tp:?}, mag {:.2}",
                                 catalog.mag()[*t as usize]
                             );
                         }
-                        println!("  wrong: frame {i} mode {:?} spot {o} truth {:?} got {star} (mag {:.2}, imaged elsewhere {imaged}) spot mag {:.2} residual {:.1}\" matched {} of {} spots radius {:.1}\" sigma {:.2} px", step.mode, b, catalog.mag()[star], f.frame.magnitudes[o], id.residuals_rad[o].to_degrees()*3600.0, id.matched, f.frame.centroids.len(), id.match_radius_rad.to_degrees()*3600.0, id.centroid_sigma_px);
+                        println!("  wrong: frame {i} mode {:?} spot {o} truth {:?} got {star} (mag {:.2}, imaged elsewhere {imaged}) spot mag {:.2} residual {:.1}\" matched {} of {} spots radius {:.1}\" sigma {:.2} px", step.mode, b, catalog.mag()[star], fr.magnitudes[o], id.residuals_rad[o].to_degrees()*3600.0, id.matched, fr.centroids.len(), id.match_radius_rad.to_degrees()*3600.0, id.centroid_sigma_px);
                     }
                 }
             }
             if std::env::var("STARID_DEBUG").is_ok()
-                && (step.mode != TrackMode::Tracking || wrong(id, &f.frame) > 0)
+                && (step.mode != TrackMode::Tracking || wrong(id, fr) > 0)
                 && i > 0
                 && !(seq_cfg.blank.start..=seq_cfg.blank.end).contains(&i)
             {
-                let mut order: Vec<usize> = (0..f.frame.centroids.len()).collect();
-                order.sort_by(|&a, &b| f.frame.magnitudes[a].total_cmp(&f.frame.magnitudes[b]));
+                let mut order: Vec<usize> = (0..fr.centroids.len()).collect();
+                order.sort_by(|&a, &b| fr.magnitudes[a].total_cmp(&fr.magnitudes[b]));
                 let real_top = order
                     .iter()
                     .take(10)
-                    .filter(|&&o| f.frame.catalog_index[o].is_some())
+                    .filter(|&&o| fr.catalog_index[o].is_some())
                     .count();
                 let err = step.predicted.map(|p| {
-                    starid_core::geometry::rotation_angle_between(&p, &f.frame.r_icrs_to_cam)
+                    starid_core::geometry::rotation_angle_between(&p, &fr.r_icrs_to_cam)
                         .to_degrees()
                 });
-                println!("  frame {i}: mode {:?} ok {} wrong {} spots {} real {} real-in-top10 {real_top} u {:.3}° pred err {:?}°", step.mode, id.is_identified(), wrong(id, &f.frame), f.frame.centroids.len(), f.frame.real_stars(), step.uncertainty_rad.to_degrees(), err);
+                println!("  frame {i}: mode {:?} ok {} wrong {} spots {} real {} real-in-top10 {real_top} u {:.3}° pred err {:?}°", step.mode, id.is_identified(), wrong(id, fr), fr.centroids.len(), fr.real_stars(), step.uncertainty_rad.to_degrees(), err);
             }
             if i >= seq_cfg.blank.end && regained.is_none() && id.is_identified() {
                 regained = Some(i - seq_cfg.blank.end + 1);
