@@ -14,8 +14,9 @@
 //! solutions, or of a magnitude the camera rarely detects, wait for a second frame in a row
 //! ([`TrackerConfig::confirm_unseen_frames`]); a star that the solution fitted without its spot
 //! places off the sensor keeps no spot far from it ([`OFF_SENSOR_SIGMAS`]); and with
-//! magnitudes, a spot that fits a neighbouring star (or a neighbouring spot its star)
-//! decisively better by brightness is not named ([`MAG_RIVAL_LOG_ODDS`]).
+//! magnitudes (or the brightness order alone), a spot that fits a neighbouring star (or a
+//! neighbouring spot its star) decisively better by brightness is not named
+//! ([`MAG_RIVAL_LOG_ODDS`], [`ORDER_NEIGHBOURS`]).
 
 use nalgebra::{Rotation3, Vector3};
 
@@ -139,6 +140,13 @@ pub const MAG_RIVAL_REACH: f64 = 2.0;
 /// off the sensor, a star's own spot lies inside only by its noise, near the edge, and the star's
 /// own spot is missing more often than not, so that a false spot near the edge takes its place.
 pub const OFF_SENSOR_SIGMAS: f64 = 2.0;
+
+/// Without magnitudes, the named spots on either side of a spot in the brightness order whose
+/// catalogue magnitudes give it one for the rival test ([`MAG_RIVAL_LOG_ODDS`]).
+pub const ORDER_NEIGHBOURS: usize = 2;
+
+/// Fewest named spots whose magnitudes from the order give the rival test a spread.
+const ORDER_SPREAD_MIN_NAMED: usize = 5;
 
 /// Fewest kept zero points whose median spread the rival test ([`MAG_RIVAL_LOG_ODDS`]) uses
 /// instead of the frame's own.
@@ -662,19 +670,36 @@ impl Tracker {
             drop[o] = off(camera.cam_to_pixel(&predicted))
                 && dirs[o].angle(&predicted) > OFF_SENSOR_SIGMAS * sigma;
         }
-        // The frame's zero point and spread, for the rival tests.
-        let zero = magnitudes
-            .filter(|m| m.len() == n)
-            .and_then(|m| id.zero_point(m, catalog))
-            .filter(|_| id.match_radius_rad.is_finite() && id.match_radius_rad > 0.0);
-        if let (Some((z, spread)), Some(mags)) = (zero, magnitudes) {
-            // The spread the last solutions measured, where there are enough of them: a frame's
-            // own, from a dozen stars, is rough.
-            let spread = self
-                .typical_spread()
-                .unwrap_or(spread)
-                .max(MAG_RIVAL_MIN_SPREAD);
-            let chi = |o: usize, k: u32| ((mags[o] - z - mag[k as usize]) / spread).powi(2);
+        // The spots' magnitudes, or from the brightness order alone, the magnitudes their places
+        // in it imply (see `order_magnitudes`); and the zero point and spread, for the rival tests.
+        let from_order = match magnitudes {
+            None if self.identify.brightness_order => Some(order_magnitudes(id, mag)),
+            _ => None,
+        };
+        let (mags, zero) = match (&from_order, magnitudes.filter(|m| m.len() == n)) {
+            (Some((m, spread)), _) => (Some(&m[..]), spread.map(|s| (0.0, s))),
+            (None, Some(m)) => (
+                Some(m),
+                id.zero_point(m, catalog).map(|(z, s)| {
+                    // The spread the last solutions measured, where there are enough of them: a
+                    // frame's own, from a dozen stars, is rough.
+                    (z, self.typical_spread().unwrap_or(s))
+                }),
+            ),
+            _ => (None, None),
+        };
+        let zero = zero.filter(|_| id.match_radius_rad.is_finite() && id.match_radius_rad > 0.0);
+        if let (Some((z, spread)), Some(mags)) = (zero, mags) {
+            let spread = spread.max(MAG_RIVAL_MIN_SPREAD);
+            // (A spot with no magnitude, NaN, fits nothing better.)
+            let chi = |o: usize, k: u32| {
+                let d = (mags[o] - z - mag[k as usize]) / spread;
+                if d.is_nan() {
+                    0.0
+                } else {
+                    d * d
+                }
+            };
             let decisive = 2.0 * MAG_RIVAL_LOG_ODDS;
             let reach = MAG_RIVAL_REACH * id.match_radius_rad;
             let reach_r = crate::sky::Radius::new(reach);
@@ -768,6 +793,61 @@ impl Tracker {
         }
         id.matched -= dropped;
     }
+}
+
+/// Magnitudes for a frame's spots from their brightness order (spots brightest first): each spot
+/// gets the median catalogue magnitude of the named spots nearest it in the order,
+/// [`ORDER_NEIGHBOURS`] on either side, itself left out (NaN where fewer than 2 are); and the
+/// spread of the named spots' catalogue magnitudes about theirs (1.4826 × the median absolute
+/// difference), `None` with fewer than [`ORDER_SPREAD_MIN_NAMED`] named.
+fn order_magnitudes(id: &Identification, cat_mag: &[f64]) -> (Vec<f64>, Option<f64>) {
+    let named: Vec<(usize, f64)> = id
+        .catalog_index
+        .iter()
+        .enumerate()
+        .filter_map(|(o, m)| m.map(|s| (o, cat_mag[s as usize])))
+        .collect();
+    let mut near = Vec::with_capacity(2 * ORDER_NEIGHBOURS);
+    let estimate: Vec<f64> = (0..id.catalog_index.len())
+        .map(|o| {
+            // Named spots before `o` (its own place excluded), then after it.
+            let k = named.partition_point(|x| x.0 < o);
+            let after = if named.get(k).is_some_and(|x| x.0 == o) {
+                k + 1
+            } else {
+                k
+            };
+            near.clear();
+            near.extend(
+                named[k.saturating_sub(ORDER_NEIGHBOURS)..k]
+                    .iter()
+                    .map(|x| x.1),
+            );
+            near.extend(
+                named[after..(after + ORDER_NEIGHBOURS).min(named.len())]
+                    .iter()
+                    .map(|x| x.1),
+            );
+            if near.len() < 2 {
+                f64::NAN
+            } else {
+                crate::identify::median_in_place(&mut near)
+            }
+        })
+        .collect();
+    let mut d: Vec<f64> = named
+        .iter()
+        .map(|&(o, m)| m - estimate[o])
+        .filter(|d| d.is_finite())
+        .collect();
+    let spread = (d.len() >= ORDER_SPREAD_MIN_NAMED).then(|| {
+        let centre = crate::identify::median_in_place(&mut d);
+        for x in &mut d {
+            *x = (*x - centre).abs();
+        }
+        1.4826 * crate::identify::median_in_place(&mut d)
+    });
+    (estimate, spread)
 }
 
 /// The [`Tracker::completeness`] bin of catalogue magnitude `mag`.

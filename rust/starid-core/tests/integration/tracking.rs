@@ -542,11 +542,11 @@ fn a_false_spot_inside_the_edge_does_not_take_the_name_of_a_star_just_off_it() {
 }
 
 #[test]
-fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_magnitudes_say_so() {
-    // Two stars 1 to 2 px apart whose magnitudes differ by 0.4 or more: each spot lies on the
-    // other star (as smear along their line can put it, in a frame whose other stars are sharp).
-    // Positions name them crosswise; their magnitudes say which is which; the tracker names
-    // neither wrongly.
+fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_brightness_says_so() {
+    // Two stars 1 to 2 px apart whose magnitudes differ by 0.4 or more (the pair of the largest
+    // difference): each spot lies on the other star (as smear along their line can put it, in a
+    // frame whose other stars are sharp). Positions name them crosswise; their magnitudes say
+    // which is which, and so does the brightness order alone; the tracker names neither wrongly.
     use nalgebra::{Rotation3, Vector3};
     let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
     let px = 12f64.to_radians() / 512.0;
@@ -554,15 +554,19 @@ fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_magnitudes_say_
     let m = cat.mag();
     let (a, b) = (0..cat.len())
         .filter(|&a| m[a] < 5.7)
-        .find_map(|a| {
+        .flat_map(|a| {
             (a + 1..cat.len())
-                .find(|&b| {
+                .filter(move |&b| {
                     m[b] < 5.7
                         && (m[a] - m[b]).abs() >= 0.4
                         && v[a].angle(&v[b]) < 2.0 * px
                         && v[a].angle(&v[b]) > 1.0 * px
                 })
-                .map(|b| (a as u32, b as u32))
+                .map(move |b| (a as u32, b as u32))
+        })
+        .max_by(|x, y| {
+            let d = |p: &(u32, u32)| (m[p.0 as usize] - m[p.1 as usize]).abs();
+            d(x).total_cmp(&d(y))
         })
         .expect("a close pair in the bundled catalogue");
     let centre = (v[a as usize] + v[b as usize]).normalize();
@@ -585,42 +589,48 @@ fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_magnitudes_say_
         3,
     )
     .unwrap();
-    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
-    let mut swapped = 0;
-    for (i, f) in seq.iter().enumerate() {
-        let mut frame = f.frame.clone();
-        let (Some(oa), Some(ob)) = (
-            frame.catalog_index.iter().position(|&c| c == Some(a)),
-            frame.catalog_index.iter().position(|&c| c == Some(b)),
-        ) else {
-            continue;
-        };
-        if i >= 5 {
-            frame.centroids.swap(oa, ob);
-            frame.magnitudes.swap(oa, ob);
-            frame.catalog_index.swap(oa, ob);
-            // Each spot at the other star's place, with its own magnitude.
-            frame.magnitudes.swap(oa, ob);
-            frame.catalog_index.swap(oa, ob);
+    for order_only in [false, true] {
+        let mut tracker =
+            Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+        let mut swapped = 0;
+        for (i, f) in seq.iter().enumerate() {
+            let mut frame = f.frame.clone();
+            let (Some(oa), Some(ob)) = (
+                frame.catalog_index.iter().position(|&c| c == Some(a)),
+                frame.catalog_index.iter().position(|&c| c == Some(b)),
+            ) else {
+                continue;
+            };
+            if i >= 5 {
+                // Each spot at the other star's place, with its own magnitude.
+                frame.centroids.swap(oa, ob);
+            }
+            if order_only {
+                let mut order: Vec<usize> = (0..frame.centroids.len()).collect();
+                order.sort_by(|&x, &y| frame.magnitudes[x].total_cmp(&frame.magnitudes[y]));
+                frame.centroids = order.iter().map(|&k| frame.centroids[k]).collect();
+                frame.catalog_index = order.iter().map(|&k| frame.catalog_index[k]).collect();
+                frame.magnitudes = order.iter().map(|&k| frame.magnitudes[k]).collect();
+            }
+            let id = tracker
+                .update(
+                    solver,
+                    &frame.centroids,
+                    (!order_only).then_some(&frame.magnitudes[..]),
+                    &cam,
+                    f.t_s,
+                )
+                .unwrap()
+                .identification;
+            assert!(id.is_identified(), "frame {i}");
+            for (got, want) in id.catalog_index.iter().zip(&frame.catalog_index) {
+                assert!(
+                    got.is_none() || got == want,
+                    "frame {i} (order only: {order_only}): {got:?} for {want:?}"
+                );
+            }
+            swapped += usize::from(i >= 5);
         }
-        let id = tracker
-            .update(
-                solver,
-                &frame.centroids,
-                Some(&frame.magnitudes),
-                &cam,
-                f.t_s,
-            )
-            .unwrap()
-            .identification;
-        assert!(id.is_identified(), "frame {i}");
-        for (got, want) in id.catalog_index.iter().zip(&frame.catalog_index) {
-            assert!(
-                got.is_none() || got == want,
-                "frame {i}: {got:?} for {want:?}"
-            );
-        }
-        swapped += usize::from(i >= 5);
+        assert!(swapped >= 10);
     }
-    assert!(swapped >= 10);
 }
