@@ -15,6 +15,7 @@
 //! `STARID_MAG_ZERO=Z`: the sequences' magnitudes Z mag off the catalogue's system (an
 //! instrument's), learned by the tracker unless `STARID_NO_LEARN=1`;
 //! `STARID_SEQ_ORDER=1`: the sequences' spots brightest first, without magnitudes;
+//! `STARID_WIDE=1`: a 20°/1024 px camera;
 //! `STARID_WRONG=1`: list the wrong ids; `STARID_MISSED=1`: the real stars left unnamed, with where the
 //! solution puts their star; `STARID_REPEAT=R`: part 1 times each frame R more times and keeps its
 //! fastest; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
@@ -72,7 +73,13 @@ fn main() {
     let n_frames = args.first().copied().unwrap_or(2000);
     let seq_frames = args.get(1).copied().unwrap_or(2000);
     let catalog = Arc::new(Catalog::bundled());
-    let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).expect("camera");
+    // STARID_WIDE=1: a 20°/1024 px camera instead of 12°/512 px.
+    let cam = if std::env::var("STARID_WIDE").is_ok() {
+        Camera::from_fov(20f64.to_radians(), 1024.0, 1024.0)
+    } else {
+        Camera::from_fov(12f64.to_radians(), 512.0, 512.0)
+    }
+    .expect("camera");
     let solver = Solver::for_camera(catalog.clone(), &cam).expect("solver");
     let cfg = IdentifyConfig::default();
     let mut rng = rand::rngs::StdRng::seed_from_u64(7);
