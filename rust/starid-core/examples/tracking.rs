@@ -15,7 +15,8 @@
 //! `STARID_MAG_ZERO=Z`: the sequences' magnitudes Z mag off the catalogue's system (an
 //! instrument's), learned by the tracker unless `STARID_NO_LEARN=1`;
 //! `STARID_SEQ_ORDER=1`: the sequences' spots brightest first, without magnitudes;
-//! `STARID_WIDE=1`: a 20°/1024 px camera;
+//! `STARID_WIDE=1`: a 20°/1024 px camera; `STARID_PAIRS=1`: count the stars named that have another
+//! of mag ≤ 6 under 0.75 px away, right and wrong;
 //! `STARID_WRONG=1`: list the wrong ids; `STARID_MISSED=1`: the real stars left unnamed, with where the
 //! solution puts their star; `STARID_REPEAT=R`: part 1 times each frame R more times and keeps its
 //! fastest; `STARID_PART1_ONLY=1`: stop after the hinted timing, for
@@ -286,6 +287,7 @@ fn main() {
     let mut times = Vec::new();
     // STARID_SEQ_SEED: the first sequence's seed (default 100), for a second set of sequences.
     let order_only = std::env::var("STARID_SEQ_ORDER").is_ok();
+    let count_pairs = std::env::var("STARID_PAIRS").is_ok();
     let seq_seed: u64 =
         std::env::var("STARID_SEQ_SEED").map_or(100, |v| v.parse().expect("STARID_SEQ_SEED"));
     for (k, rate_deg) in [0.1f64, 0.5, 1.0, 2.0, 5.0].into_iter().enumerate() {
@@ -328,6 +330,7 @@ fn main() {
         let (mut ok, mut track, mut bad, mut n, mut unid_real) = (0, 0, 0, 0, 0);
         let (right_before, real_before) = (all_right, all_real);
         let mut regained = None;
+        let mut pairs = [0usize; 2];
         for (i, f) in seq.iter().enumerate() {
             // STARID_SEQ_ORDER=1: the spots brightest first, without their magnitudes.
             let sorted;
@@ -365,6 +368,21 @@ fn main() {
                 .filter(|(a, b)| a.is_some() && a == b)
                 .count();
             all_real += fr.real_stars();
+            if count_pairs {
+                // Stars named with another catalogue star of mag ≤ 6 under 0.75 px away.
+                let near = 0.75 / cam.focal_length_px;
+                for (got, want) in id.catalog_index.iter().zip(&fr.catalog_index) {
+                    let Some(s) = *got else { continue };
+                    let v = catalog.vectors()[s as usize];
+                    let paired = catalog
+                        .in_cone(&v, near)
+                        .iter()
+                        .any(|&k| k != s && catalog.mag()[k as usize] <= 6.0);
+                    if paired {
+                        pairs[usize::from(*got == *want)] += 1;
+                    }
+                }
+            }
             if !id.is_identified() && fr.real_stars() >= 2 {
                 unid_real += 1;
             }
@@ -448,6 +466,12 @@ fn main() {
             if i >= seq_cfg.blank.end && regained.is_none() && id.is_identified() {
                 regained = Some(i - seq_cfg.blank.end + 1);
             }
+        }
+        if count_pairs {
+            println!(
+                "4. {rate_deg}°/s: stars named with a neighbour of mag ≤ 6 under 0.75 px: {} right, {} wrong",
+                pairs[1], pairs[0]
+            );
         }
         println!(
             "4. {rate_deg}°/s: {ok}/{n} identified ({:.2} %), {track} in tracking mode ({:.2} %), {bad} wrong ids, {:.2} % of real stars named, {unid_real} unidentified with ≥ 2 real stars; lock regained {:?} frame(s) after 10 blank ones",
