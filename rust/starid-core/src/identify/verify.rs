@@ -470,7 +470,9 @@ impl Search<'_> {
     /// ±[`COMPLETENESS_HALF_WIDTH_MAG`] of the star's magnitude, at least
     /// [`COMPLETENESS_MIN_STARS`] and fewer than [`COMPLETENESS_MIN_FRACTION`] are matched. Such
     /// a match is a false spot on a star too faint to be imaged (the catalogue is deeper than the
-    /// camera), not a detection. Needs no magnitudes of the spots. Returns how many.
+    /// camera), not a detection. With fewer than [`BRIGHTER_CHECK_MAX_MATCHES`] matches, also
+    /// those whose brighter stars on the sensor are mostly unmatched. Needs no magnitudes of the
+    /// spots. Returns how many.
     pub(super) fn drop_unseen_magnitudes(&mut self, r: &Rotation3<f64>, mirrored: bool) -> usize {
         let catalog = &*self.solver.catalog;
         let (cat_mag, cat) = (catalog.mag(), catalog.vectors());
@@ -483,6 +485,7 @@ impl Search<'_> {
         if s.fitted.len() < 2 {
             return 0;
         }
+        let few = s.fitted.len() < BRIGHTER_CHECK_MAX_MATCHES;
         let mut matched: Vec<u32> = s.fitted.iter().map(|c| c.unwrap_or(0)).collect();
         matched.sort_unstable();
         // Catalogue stars imaged on the sensor: (magnitude, matched?), by magnitude.
@@ -512,8 +515,16 @@ impl Search<'_> {
             let hi = mags.partition_point(|&x| x <= mag + COMPLETENESS_HALF_WIDTH_MAG);
             let total = hi - lo;
             let seen = seen_before[hi] - seen_before[lo];
-            if total >= COMPLETENESS_MIN_STARS
-                && (seen as f64) < COMPLETENESS_MIN_FRACTION * total as f64
+            // With a few matches only, the stars brighter than it too: a camera that missed most
+            // of those did not see it. (An attitude that a wrong hint let two spots fit by chance
+            // names two stars at random, with brighter ones unseen around them.)
+            let brighter = mags.partition_point(|&x| x < mag - BRIGHTER_MARGIN_MAG);
+            let brighter_seen = seen_before[brighter];
+            if (total >= COMPLETENESS_MIN_STARS
+                && (seen as f64) < COMPLETENESS_MIN_FRACTION * total as f64)
+                || (few
+                    && brighter >= BRIGHTER_MIN_STARS
+                    && (brighter_seen as f64) < BRIGHTER_MIN_FRACTION * brighter as f64)
             {
                 *m = None;
                 dropped += 1;
@@ -625,6 +636,22 @@ pub(super) const COMPLETENESS_MIN_STARS: usize = 4;
 
 /// A match is dropped when fewer than this fraction of the stars in its range are matched.
 pub(super) const COMPLETENESS_MIN_FRACTION: f64 = 0.25;
+
+/// With fewer matches than this, a match is dropped, too, when fewer than
+/// [`BRIGHTER_MIN_FRACTION`] of the catalogue stars on the sensor more than
+/// [`BRIGHTER_MARGIN_MAG`] brighter than its star are matched, of at least
+/// [`BRIGHTER_MIN_STARS`] (see `Search::drop_unseen_magnitudes`). More matches than that
+/// verify by themselves.
+pub(super) const BRIGHTER_CHECK_MAX_MATCHES: usize = 4;
+
+/// See [`BRIGHTER_CHECK_MAX_MATCHES`].
+pub(super) const BRIGHTER_MIN_FRACTION: f64 = 0.5;
+
+/// Fewest brighter stars for that judgement.
+pub(super) const BRIGHTER_MIN_STARS: usize = 3;
+
+/// How much brighter, mag, a star must be to count in it: detection is not sharp in magnitude.
+pub(super) const BRIGHTER_MARGIN_MAG: f64 = 0.3;
 
 /// Work of one nearest-star look-up, in catalogue pairs visited (about its cost in time): the
 /// search's work budget counts matching too, so frames of many spots end as soon.

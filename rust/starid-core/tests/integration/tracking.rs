@@ -634,3 +634,78 @@ fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_brightness_says
         assert!(swapped >= 10);
     }
 }
+
+#[test]
+fn a_hint_ten_degrees_off_does_not_name_two_stars_with_brighter_ones_unseen() {
+    // Frames (simulation seeds) on which a hint 10° off, with a 1° uncertainty and no fallback,
+    // once named two stars: its first spot pair fitted two catalogue stars by chance, at a bound
+    // under 1e-3. The stars it named had brighter ones on the sensor that no spot matched. (A
+    // fifth such frame, seed 5130, names the field's first and third brightest stars: nothing
+    // in one frame tells that from a real two-star match.)
+    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let sim = SimConfig {
+        mag_limit: Some(6.0),
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
+    let cases: [(u64, [f64; 3]); 4] = [
+        (
+            3711,
+            [
+                0.1650875114982857,
+                -0.03317197692681815,
+                -0.04590724858604285,
+            ],
+        ),
+        (
+            4330,
+            [
+                -0.08889889693054844,
+                -0.09689303354595438,
+                -0.11476266010103199,
+            ],
+        ),
+        (
+            5854,
+            [
+                0.06591974759880663,
+                -0.1615753198479799,
+                -0.0031216776264261,
+            ],
+        ),
+        (
+            6169,
+            [
+                0.03795940408817301,
+                -0.12317216536790519,
+                0.1176836577376949,
+            ],
+        ),
+    ];
+    for (seed, axis_angle) in cases {
+        let f = starid_core::simulate(&cat, &cam, &sim, seed).unwrap();
+        let off = nalgebra::Rotation3::new(nalgebra::Vector3::from(axis_angle));
+        let hint = starid_core::AttitudeHint {
+            r_icrs_to_cam: off * f.r_icrs_to_cam,
+            uncertainty_rad: 1f64.to_radians(),
+            mirrored: Some(f.mirrored),
+        };
+        let id = solver
+            .identify_hinted(
+                &f.centroids,
+                Some(&f.magnitudes),
+                &cam,
+                &IdentifyConfig::default(),
+                &hint,
+                starid_core::HintFallback::None,
+            )
+            .unwrap();
+        for (got, want) in id.catalog_index.iter().zip(&f.catalog_index) {
+            assert!(
+                got.is_none() || got == want,
+                "seed {seed}: {got:?} for {want:?}"
+            );
+        }
+    }
+}
