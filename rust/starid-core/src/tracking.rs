@@ -613,8 +613,8 @@ impl Tracker {
     }
 
     /// Unname, in a tracking solution, the matches of stars the solution places off the sensor
-    /// (see [`OFF_SENSOR_SIGMAS`]), and with magnitudes, those whose spot's magnitude fits a
-    /// rival decisively better (see [`MAG_RIVAL_LOG_ODDS`]).
+    /// (see [`OFF_SENSOR_SIGMAS`]), and with magnitudes or the brightness order, those whose
+    /// spot's magnitude fits a rival decisively better (see [`MAG_RIVAL_LOG_ODDS`]).
     fn unname_doubtful(
         &self,
         id: &mut Identification,
@@ -626,50 +626,37 @@ impl Tracker {
         let Some(r) = id.r_icrs_to_cam else {
             return;
         };
-        let catalog = solver.catalog();
-        let (cat, mag) = (catalog.vectors(), catalog.mag());
-        let n = id.catalog_index.len();
-        let sigma = id.centroid_sigma_px / camera.focal_length_px;
-        let mut drop = vec![false; n];
         let dirs: Vec<Vector3<f64>> = centroids
             .iter()
             .map(|&[x, y]| camera.pixel_to_cam(x, y, id.mirrored))
             .collect();
-        let (w, h) = (camera.width_px, camera.height_px);
-        let off = |p: Option<(f64, f64)>| {
-            p.is_none_or(|(x, y)| !(0.0..=w).contains(&x) || !(0.0..=h).contains(&y))
-        };
-        let near_edge = |p: Option<(f64, f64)>, margin: f64| {
-            p.is_none_or(|(x, y)| x.min(y).min(w - x).min(h - y) < margin)
-        };
-        let edge_margin = OFF_SENSOR_SIGMAS * id.centroid_sigma_px;
-        let (mut obs, mut refs) = (Vec::new(), Vec::new());
-        for (o, m) in id.catalog_index.iter().enumerate() {
-            let Some(star) = *m else { continue };
-            let v = cat[star as usize];
-            if !near_edge(camera.cam_to_pixel(&(r * v)), edge_margin) {
-                continue;
+        let mut drop = vec![false; id.catalog_index.len()];
+        off_sensor(id, solver, camera, &r, &dirs, &mut drop);
+        self.brightness_rivals(id, solver, magnitudes, &r, &dirs, &mut drop);
+        for (o, d) in drop.into_iter().enumerate() {
+            if d && id.catalog_index[o].take().is_some() {
+                id.residuals_rad[o] = f64::NAN;
+                id.matched -= 1;
             }
-            // Off the sensor, a star's own spot lies inside only by its noise, near the edge. The
-            // attitude is fitted without the spot: a false one pulls the fit its way.
-            obs.clear();
-            refs.clear();
-            for (p, q) in id.catalog_index.iter().enumerate() {
-                if let (Some(s), true) = (*q, p != o) {
-                    obs.push(dirs[p]);
-                    refs.push(cat[s as usize]);
-                }
-            }
-            let Some(r_without) = (obs.len() >= 3)
-                .then(|| crate::attitude::wahba_from(&obs, &refs, &r))
-                .flatten()
-            else {
-                continue;
-            };
-            let predicted = r_without * v;
-            drop[o] = off(camera.cam_to_pixel(&predicted))
-                && dirs[o].angle(&predicted) > OFF_SENSOR_SIGMAS * sigma;
         }
+    }
+
+    /// Mark in `drop` the spots of `id` whose magnitude, or the one their place in the brightness
+    /// order implies (see [`order_magnitudes`]), fits a rival star or spot decisively better
+    /// (see [`MAG_RIVAL_LOG_ODDS`]); `dirs`: the spots' camera-frame directions, `r` the
+    /// solution.
+    fn brightness_rivals(
+        &self,
+        id: &Identification,
+        solver: &Solver,
+        magnitudes: Option<&[f64]>,
+        r: &Rotation3<f64>,
+        dirs: &[Vector3<f64>],
+        drop: &mut [bool],
+    ) {
+        let catalog = solver.catalog();
+        let (cat, mag) = (catalog.vectors(), catalog.mag());
+        let n = id.catalog_index.len();
         // The spots' magnitudes, or from the brightness order alone, the magnitudes their places
         // in it imply (see `order_magnitudes`); and the zero point and spread, for the rival tests.
         let from_order = match magnitudes {
@@ -751,12 +738,6 @@ impl Tracker {
                 }
             }
         }
-        for (o, d) in drop.into_iter().enumerate() {
-            if d && id.catalog_index[o].take().is_some() {
-                id.residuals_rad[o] = f64::NAN;
-                id.matched -= 1;
-            }
-        }
     }
 
     /// `star`'s entry in `self.unseen`: the solutions in a row that had it well inside the sensor
@@ -792,6 +773,56 @@ impl Tracker {
             }
         }
         id.matched -= dropped;
+    }
+}
+
+/// Mark in `drop` the spots of the solution `id` (attitude `r`, spots' camera-frame directions
+/// `dirs`) whose star the attitude fitted without the spot places off the sensor, more than
+/// [`OFF_SENSOR_SIGMAS`] from the spot.
+fn off_sensor(
+    id: &Identification,
+    solver: &Solver,
+    camera: &Camera,
+    r: &Rotation3<f64>,
+    dirs: &[Vector3<f64>],
+    drop: &mut [bool],
+) {
+    let cat = solver.catalog().vectors();
+    let sigma = id.centroid_sigma_px / camera.focal_length_px;
+    let (w, h) = (camera.width_px, camera.height_px);
+    let off = |p: Option<(f64, f64)>| {
+        p.is_none_or(|(x, y)| !(0.0..=w).contains(&x) || !(0.0..=h).contains(&y))
+    };
+    let near_edge = |p: Option<(f64, f64)>, margin: f64| {
+        p.is_none_or(|(x, y)| x.min(y).min(w - x).min(h - y) < margin)
+    };
+    let edge_margin = OFF_SENSOR_SIGMAS * id.centroid_sigma_px;
+    let (mut obs, mut refs) = (Vec::new(), Vec::new());
+    for (o, m) in id.catalog_index.iter().enumerate() {
+        let Some(star) = *m else { continue };
+        let v = cat[star as usize];
+        if !near_edge(camera.cam_to_pixel(&(r * v)), edge_margin) {
+            continue;
+        }
+        // Off the sensor, a star's own spot lies inside only by its noise, near the edge. The
+        // attitude is fitted without the spot: a false one pulls the fit its way.
+        obs.clear();
+        refs.clear();
+        for (p, q) in id.catalog_index.iter().enumerate() {
+            if let (Some(s), true) = (*q, p != o) {
+                obs.push(dirs[p]);
+                refs.push(cat[s as usize]);
+            }
+        }
+        let Some(r_without) = (obs.len() >= 3)
+            .then(|| crate::attitude::wahba_from(&obs, &refs, r))
+            .flatten()
+        else {
+            continue;
+        };
+        let predicted = r_without * v;
+        drop[o] = off(camera.cam_to_pixel(&predicted))
+            && dirs[o].angle(&predicted) > OFF_SENSOR_SIGMAS * sigma;
     }
 }
 
