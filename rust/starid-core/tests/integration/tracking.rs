@@ -15,6 +15,35 @@ fn solver_12() -> &'static Solver {
     S.get_or_init(|| Solver::for_camera(bundled(), &camera_12()).unwrap())
 }
 
+/// A sequence of the 12°/512 px camera over the bundled catalogue: stars to mag 6 with 0.05 mag
+/// noise, `noise_px` centroid noise, turning at `rate_deg_s` from `r0` (random: `None`).
+fn sequence_12(
+    frames: usize,
+    rate_deg_s: f64,
+    noise_px: f64,
+    r0: Option<nalgebra::Rotation3<f64>>,
+    seed: u64,
+) -> Vec<starid_core::simulate::SequenceFrame> {
+    simulate_sequence(
+        &bundled(),
+        &camera_12(),
+        &SequenceConfig {
+            frames,
+            rate_rad_s: rate_deg_s.to_radians(),
+            frame: SimConfig {
+                r_icrs_to_cam: r0,
+                mag_limit: Some(6.0),
+                noise_px,
+                mag_noise: 0.05,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        seed,
+    )
+    .unwrap()
+}
+
 /// Where `star` falls on the sensor of frame `f` (its true attitude and handedness).
 fn pixel_of(f: &SimFrame, star: u32, cam: &Camera) -> Option<[f64; 2]> {
     let v = bundled().vectors()[star as usize];
@@ -39,23 +68,7 @@ fn spot_on(f: &mut SimFrame, star: u32, cam: &Camera) -> usize {
 fn a_false_spot_on_a_star_the_camera_never_saw_waits_for_a_second_frame() {
     let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
     let limit = 6.0;
-    let seq = simulate_sequence(
-        &cat,
-        &cam,
-        &SequenceConfig {
-            frames: 24,
-            rate_rad_s: 0.3f64.to_radians(),
-            frame: SimConfig {
-                mag_limit: Some(limit),
-                noise_px: 0.2,
-                mag_noise: 0.05,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        11,
-    )
-    .unwrap();
+    let seq = sequence_12(24, 0.3, 0.2, None, 11);
     // A star too faint to be imaged that stays well inside the sensor the whole time.
     let inside = |p: Option<[f64; 2]>| {
         p.is_some_and(|[x, y]| (40.0..472.0).contains(&x) && (40.0..472.0).contains(&y))
@@ -391,23 +404,7 @@ fn a_false_spot_on_a_star_past_the_cameras_limit_is_held_even_as_the_star_enters
     // unseen yet, but the tracker has counted how rarely stars of its magnitude are matched.
     let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
     let limit = 6.0;
-    let seq = simulate_sequence(
-        &cat,
-        &cam,
-        &SequenceConfig {
-            frames: 200,
-            rate_rad_s: 2f64.to_radians(),
-            frame: SimConfig {
-                mag_limit: Some(limit),
-                noise_px: 0.2,
-                mag_noise: 0.05,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        21,
-    )
-    .unwrap();
+    let seq = sequence_12(200, 2.0, 0.2, None, 21);
     // From frame 30 on, every second frame: a faint star 6 px or more inside that the frame
     // before had within 4 px of an edge or off the sensor.
     let entering = |i: usize| -> Option<u32> {
@@ -465,23 +462,7 @@ fn a_false_spot_inside_the_edge_does_not_take_the_name_of_a_star_just_off_it() {
     // The star's own spot fell off the sensor; a false spot of its brightness lies 2.2 px inward
     // from it (0.7 to 1.9 px inside the edge), within the match radius of a 0.5 px frame.
     let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
-    let seq = simulate_sequence(
-        &cat,
-        &cam,
-        &SequenceConfig {
-            frames: 150,
-            rate_rad_s: 1f64.to_radians(),
-            frame: SimConfig {
-                mag_limit: Some(6.0),
-                noise_px: 0.5,
-                mag_noise: 0.05,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        5,
-    )
-    .unwrap();
+    let seq = sequence_12(150, 1.0, 0.5, None, 5);
     let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
     let mut cases = 0;
     for (i, f) in seq.iter().enumerate() {
@@ -571,24 +552,7 @@ fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_brightness_says
         .expect("a close pair in the bundled catalogue");
     let centre = (v[a as usize] + v[b as usize]).normalize();
     let r0 = Rotation3::rotation_between(&centre, &Vector3::z()).unwrap();
-    let seq = simulate_sequence(
-        &cat,
-        &cam,
-        &SequenceConfig {
-            frames: 20,
-            rate_rad_s: 0.1f64.to_radians(),
-            frame: SimConfig {
-                r_icrs_to_cam: Some(r0),
-                mag_limit: Some(6.0),
-                noise_px: 0.2,
-                mag_noise: 0.05,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        3,
-    )
-    .unwrap();
+    let seq = sequence_12(20, 0.1, 0.2, Some(r0), 3);
     for order_only in [false, true] {
         let mut tracker =
             Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
