@@ -423,8 +423,7 @@ fn main() {
                         let [sx, sy] = fr.centroids[o];
                         let tv = cam.cam_to_pixel(&(fr.r_icrs_to_cam * catalog.vectors()[star]));
                         println!("    spot at ({sx:.1}, {sy:.1}) px; the star where the solution puts it {pv:?}, where it truly is {tv:?}");
-                        if let Some(q) = f
-                            .frame
+                        if let Some(q) = fr
                             .catalog_index
                             .iter()
                             .position(|c| *c == Some(star as u32))
