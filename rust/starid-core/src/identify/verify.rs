@@ -290,9 +290,14 @@ impl Search<'_> {
                 _ => None,
             };
         let tol = self.config.mag_tolerance;
-        if let (Some(off), Some(m)) = (offset, self.magnitudes) {
-            let fits = |o: u32, star: u32| {
-                (m[o as usize] - off - f64::from(mags[star as usize])).abs() <= tol
+        if !s.ambiguous.is_empty() {
+            // With the magnitudes' offset, a decisive joint assignment names both centroids where
+            // their magnitudes fit; without, it names none.
+            let fits = |o: u32, star: u32| match (offset, self.magnitudes) {
+                (Some(off), Some(m)) => {
+                    (m[o as usize] - off - f64::from(mags[star as usize])).abs() <= tol
+                }
+                _ => false,
             };
             let cat = catalog.vectors();
             // A few torn centroids (the usual frame) look their owners up in the claims as they
@@ -302,6 +307,8 @@ impl Search<'_> {
                 s.claim.sort_unstable_by_key(|c| c.0);
             }
             let mut resolved: Vec<(u32, u32, f64, u32, u32, f64)> = Vec::new();
+            // Owners whose claim the joint assignment does not bear out.
+            let mut doubted: Vec<u32> = Vec::new();
             for &(ob, cands) in &s.ambiguous {
                 let [(s1, _), (s2, _)] = cands;
                 let owner = |star: u32| {
@@ -315,15 +322,16 @@ impl Search<'_> {
                     }
                 };
                 let pair = (s1.min(s2), s1.max(s2));
-                let oa =
+                let (oa, owned) =
                     match (owner(s1), owner(s2)) {
-                        (Some(a), None) | (None, Some(a)) => a,
+                        (Some(a), None) => (a, Some(s1)),
+                        (None, Some(a)) => (a, Some(s2)),
                         // Both torn between the same two stars: the other one's index is larger,
                         // so the pair is settled once.
                         (None, None) => match s.ambiguous.iter().find(|(o, c)| {
                             *o > ob && (c[0].0.min(c[1].0), c[0].0.max(c[1].0)) == pair
                         }) {
-                            Some(&(o, _)) => o,
+                            Some(&(o, _)) => (o, None),
                             None => continue,
                         },
                         _ => continue,
@@ -340,18 +348,31 @@ impl Search<'_> {
                 let d = |w: &Vector3<f64>, star: u32| w.cross(&cat[star as usize]).norm();
                 let straight = d(&wa, s1).powi(2) + d(&wb, s2).powi(2);
                 let crossed = d(&wa, s2).powi(2) + d(&wb, s1).powi(2);
-                if (straight - crossed).abs() < decisive {
-                    continue;
-                }
+                // The owner keeps its star only where it, and the torn centroid the other star,
+                // fit decisively better than the two swapped: otherwise the torn centroid may be
+                // that star's own spot, and the owner the other star's.
+                let (kept, swapped) = match owned {
+                    Some(k) if k == s1 => (straight, crossed),
+                    _ => (crossed, straight),
+                };
+                // (Only where the magnitude gate allows the swap: a gate that keeps the owner from
+                // the other star already told them apart.)
+                let doubt = owned.is_some_and(|k| {
+                    let other = if k == s1 { s2 } else { s1 };
+                    swapped - kept < decisive
+                        && gate_allows(gate, mags, oa as usize, other)
+                        && gate_allows(gate, mags, ob as usize, k)
+                });
                 let (for_a, for_b) = if straight < crossed {
                     (s1, s2)
                 } else {
                     (s2, s1)
                 };
-                if !(fits(oa, for_a) && fits(ob, for_b)) {
-                    continue;
+                if (straight - crossed).abs() >= decisive && fits(oa, for_a) && fits(ob, for_b) {
+                    resolved.push((oa, for_a, d(&wa, for_a), ob, for_b, d(&wb, for_b)));
+                } else if doubt {
+                    doubted.push(oa);
                 }
-                resolved.push((oa, for_a, d(&wa, for_a), ob, for_b, d(&wb, for_b)));
             }
             for (oa, sa, da, ob, sb, db) in resolved {
                 if s.matches[oa as usize].is_none() {
@@ -374,6 +395,9 @@ impl Search<'_> {
                     }
                     s.claim.push((sb, ob, db));
                 }
+            }
+            for oa in doubted {
+                s.matches[oa as usize] = None;
             }
         }
         // A catalogue star claimed by two centroids is ambiguous: neither gets it.
