@@ -117,6 +117,25 @@ pub const CONFIRM_NEVER_NAMED_FRAMES: u32 = 3;
 /// that sat between 4 and 8 px from an edge.
 pub const CONFIRM_MARGIN_PX: f64 = 4.0;
 
+/// In tracking mode, a name is checked again when the centroid noise along the image motion
+/// (the smear of a turning camera) is at least this many times that across it, measured from
+/// the named spots' residuals: the verification's ambiguity tests take the noise as the same
+/// in every direction, which along a long smear it is not.
+pub const SMEAR_MIN_ANISOTROPY: f64 = 1.3;
+
+/// The log-likelihood ratio those checks ask of a name (ln 1000, as the verification's).
+pub const SMEAR_AMBIGUITY_LOG_ODDS: f64 = 6.907_755_278_982_137;
+
+/// Fewest named spots (this solution's and the last ones') from which the two spreads are
+/// measured.
+const SMEAR_MIN_NAMED: usize = 6;
+
+/// Most named spots' residuals kept for the two spreads: a dozen frames' worth.
+const SMEAR_HISTORY: usize = 256;
+
+/// Median of a χ² variable with one degree of freedom.
+const CHI2_1_MEDIAN: f64 = 0.454_936_423_119_572_8;
+
 /// With [`TrackerConfig::confirm_unseen_frames`] on, a star in a magnitude range the camera has
 /// detected in fewer than this fraction of the solutions that had such stars well inside the
 /// sensor is held, as an unseen one is, unless the last solution named it: a false spot on a
@@ -232,6 +251,20 @@ pub struct Tracker {
     /// inside the sensor: how many were matched, and how many in all. Kept across `reset`: it
     /// is the camera's.
     completeness: Vec<[u32; 2]>,
+    /// The last tracking solutions' named spots' residuals, squared, along the image motion and
+    /// across it (pixels²), oldest first, at most [`SMEAR_HISTORY`]: the two spreads
+    /// [`Tracker::smear_rivals`] tests names with. Cleared with the rate.
+    smear: std::collections::VecDeque<[f64; 2]>,
+}
+
+/// A named spot as [`Tracker::smear_rivals`] weighs it: its index, its pixel and its star's
+/// (unmirrored image), and the image motion's unit direction there.
+#[derive(Debug, Clone, Copy)]
+struct SmearedSpot {
+    spot: usize,
+    at: [f64; 2],
+    star_at: [f64; 2],
+    dir: [f64; 2],
 }
 
 /// What a focal check found of the camera a [`Tracker`] was given.
@@ -296,6 +329,7 @@ impl Tracker {
             held: Vec::new(),
             focal: None,
             zero_points: std::collections::VecDeque::new(),
+            smear: std::collections::VecDeque::new(),
             completeness: vec![[0, 0]; COMPLETENESS_BINS],
         })
     }
@@ -316,6 +350,7 @@ impl Tracker {
         self.history.clear();
         self.rate = None;
         self.rate_change = 0.0;
+        self.smear.clear();
         self.named.clear();
         self.unseen.clear();
         self.confirmed.clear();
@@ -451,6 +486,13 @@ impl Tracker {
         let continuous = self
             .last
             .is_some_and(|(t0, _, m0)| (t_s - t0).abs() <= RATE_BASELINE_S && m0 == id.mirrored);
+        // The doubtful names go first: the holds below then see what the solution matched less
+        // those, and a pair whose one star is held is still tested whole.
+        let smear = if mode == TrackMode::Tracking {
+            self.unname_doubtful(&mut id, solver, camera, centroids, magnitudes)
+        } else {
+            Vec::new()
+        };
         let mut held_now = Vec::new();
         if self.config.confirm_new_stars && mode == TrackMode::Tracking && continuous {
             if let Some((_, r0, _)) = self.last {
@@ -463,9 +505,6 @@ impl Tracker {
         ) {
             self.hold_unseen(&mut id, k, solver, &mut held_now);
         }
-        if mode == TrackMode::Tracking {
-            self.unname_doubtful(&mut id, solver, camera, centroids, magnitudes);
-        }
         if let (true, Some(r)) = (id.is_identified(), id.r_icrs_to_cam) {
             // A lock on the other handedness, or after a long gap, starts a new history.
             let gap = self
@@ -474,6 +513,13 @@ impl Tracker {
             if gap {
                 self.history.clear();
                 self.rate = None;
+                self.smear.clear();
+            }
+            for c in smear {
+                self.smear.push_back(c);
+                if self.smear.len() > SMEAR_HISTORY {
+                    self.smear.pop_front();
+                }
             }
             self.history.push_back((t_s, r));
             while self.history.len() > 2 && (t_s - self.history[0].0).abs() > RATE_BASELINE_S {
@@ -622,9 +668,9 @@ impl Tracker {
         camera: &Camera,
         centroids: &[[f64; 2]],
         magnitudes: Option<&[f64]>,
-    ) {
+    ) -> Vec<[f64; 2]> {
         let Some(r) = id.r_icrs_to_cam else {
-            return;
+            return Vec::new();
         };
         let dirs: Vec<Vector3<f64>> = centroids
             .iter()
@@ -633,12 +679,14 @@ impl Tracker {
         let mut drop = vec![false; id.catalog_index.len()];
         off_sensor(id, solver, camera, &r, &dirs, &mut drop);
         self.brightness_rivals(id, solver, magnitudes, &r, &dirs, &mut drop);
+        let smear = self.smear_rivals(id, solver, camera, &r, &dirs, &mut drop);
         for (o, d) in drop.into_iter().enumerate() {
             if d && id.catalog_index[o].take().is_some() {
                 id.residuals_rad[o] = f64::NAN;
                 id.matched -= 1;
             }
         }
+        smear
     }
 
     /// Mark in `drop` the spots of `id` whose magnitude, or the one their place in the brightness
@@ -738,6 +786,106 @@ impl Tracker {
                 }
             }
         }
+    }
+
+    /// Mark in `drop` the spots of `id` (attitude `r`, camera-frame directions `dirs`) whose
+    /// names are not decisive once the centroid noise is measured along the image motion and
+    /// across it (see [`SMEAR_MIN_ANISOTROPY`]): two named spots whose stars, swapped, fit about
+    /// as well are both dropped. The test is the verification's joint assignment
+    /// ([`SMEAR_AMBIGUITY_LOG_ODDS`]) under Gaussian noise of the two spreads, measured over this
+    /// solution's and the last ones' named spots. Returns this solution's named spots' squared
+    /// residuals along and across the motion, for the spreads of the frames that follow.
+    fn smear_rivals(
+        &self,
+        id: &Identification,
+        solver: &Solver,
+        camera: &Camera,
+        r: &Rotation3<f64>,
+        dirs: &[Vector3<f64>],
+        drop: &mut [bool],
+    ) -> Vec<[f64; 2]> {
+        let Some(rate) = self.rate.filter(|w| w.norm() > 0.0) else {
+            return Vec::new();
+        };
+        let cat = solver.catalog().vectors();
+        // Each named spot with its star's pixel and the image motion's direction there (pixels
+        // of the unmirrored image, as the attitude projects them).
+        let step = 1e-4 / rate.norm();
+        let mut named: Vec<SmearedSpot> = Vec::new();
+        for (o, m) in id.catalog_index.iter().enumerate() {
+            let Some(star) = *m else { continue };
+            let (Some(at), Some(star_at), Some(moved)) = (
+                camera.cam_to_pixel(&dirs[o]),
+                camera.cam_to_pixel(&(r * cat[star as usize])),
+                camera.cam_to_pixel(&(dirs[o] + step * rate.cross(&dirs[o]))),
+            ) else {
+                continue;
+            };
+            let (ux, uy) = (moved.0 - at.0, moved.1 - at.1);
+            let len = ux.hypot(uy);
+            if len > 0.0 {
+                named.push(SmearedSpot {
+                    spot: o,
+                    at: [at.0, at.1],
+                    star_at: [star_at.0, star_at.1],
+                    dir: [ux / len, uy / len],
+                });
+            }
+        }
+        let this: Vec<[f64; 2]> = named
+            .iter()
+            .map(|n| {
+                let (e, u) = ([n.at[0] - n.star_at[0], n.at[1] - n.star_at[1]], n.dir);
+                [
+                    (e[0] * u[0] + e[1] * u[1]).powi(2),
+                    (e[0] * u[1] - e[1] * u[0]).powi(2),
+                ]
+            })
+            .collect();
+        // The spreads along and across the motion: robust (the median of the squared
+        // components over that of a χ² with one degree of freedom).
+        let pooled = || self.smear.iter().chain(&this);
+        if pooled().count() < SMEAR_MIN_NAMED {
+            return this;
+        }
+        let spread = |k: usize| {
+            let mut v: Vec<f64> = pooled().map(|c| c[k]).collect();
+            crate::identify::median_in_place(&mut v) / CHI2_1_MEDIAN
+        };
+        let (var_along, var_across) = (spread(0), spread(1));
+        if !(var_across > 0.0 && var_along >= SMEAR_MIN_ANISOTROPY.powi(2) * var_across) {
+            return this;
+        }
+        // Twice the log-likelihood ratio the name must win by, in units of the spreads.
+        let decisive = 2.0 * SMEAR_AMBIGUITY_LOG_ODDS;
+        let cost = |at: &[f64; 2], star_at: &[f64; 2], u: &[f64; 2]| {
+            let e = [at[0] - star_at[0], at[1] - star_at[1]];
+            (e[0] * u[0] + e[1] * u[1]).powi(2) / var_along
+                + (e[0] * u[1] - e[1] * u[0]).powi(2) / var_across
+        };
+        // Stars farther apart than this (pixels) are never so confused.
+        let reach_px = 2.0 * (decisive * var_along).sqrt();
+        // Named pairs whose stars lie within reach: by the stars' x, a window each.
+        named.sort_unstable_by(|a, b| a.star_at[0].total_cmp(&b.star_at[0]));
+        for (i, na) in named.iter().enumerate() {
+            let (oa, pa, sa, ua) = (na.spot, na.at, na.star_at, na.dir);
+            for nb in &named[i + 1..] {
+                let (ob, pb, sb, ub) = (nb.spot, nb.at, nb.star_at, nb.dir);
+                if sb[0] - sa[0] > reach_px {
+                    break;
+                }
+                if (sb[1] - sa[1]).abs() > reach_px {
+                    continue;
+                }
+                let straight = cost(&pa, &sa, &ua) + cost(&pb, &sb, &ub);
+                let crossed = cost(&pa, &sb, &ua) + cost(&pb, &sa, &ub);
+                if crossed - straight < decisive {
+                    drop[oa] = true;
+                    drop[ob] = true;
+                }
+            }
+        }
+        this
     }
 
     /// `star`'s entry in `self.unseen`: the solutions in a row that had it well inside the sensor
