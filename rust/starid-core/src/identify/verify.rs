@@ -336,6 +336,10 @@ impl Search<'_> {
                         },
                         _ => continue,
                     };
+                // Two torn centroids with no offset to name them by: nothing to settle.
+                if owned.is_none() && offset.is_none() {
+                    continue;
+                }
                 // Two centroids and two stars only: with a third star nearly as likely as the
                 // nearest for either centroid, the pair's two assignments are not the only ones.
                 if s.near.third_as_likely(oa as usize, radius, decisive)
