@@ -687,6 +687,70 @@ fn two_spots_of_an_equal_pair_crossed_along_the_smear_are_not_named() {
 }
 
 #[test]
+fn on_the_order_alone_a_bright_false_spot_on_a_faint_star_is_not_named() {
+    // From the second frame of a sequence (before any streak or magnitude count could hold the
+    // star), a false spot lies on a catalogue star too faint for the camera, first in the
+    // brightness order of a field with two stars brighter than mag 3.8: the magnitude its place
+    // implies is far brighter than the star's. The
+    // tracker, told the order alone, does not name it (fails with the order's too-bright check
+    // off).
+    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let mut cases = 0;
+    let mut fields = 0;
+    for seed in 0..400 {
+        let seq = sequence_12(6, 0.3, 0.2, None, 40 + seed);
+        // Fields whose two brightest stars are brighter than mag 3.8: the false spot's place
+        // then says it is more than 2.5 mag brighter than the faint star.
+        let bright = |f: &SimFrame| {
+            f.catalog_index
+                .iter()
+                .flatten()
+                .filter(|&&s| cat.mag()[s as usize] < 3.8)
+                .count()
+        };
+        if fields == 6 || seq.iter().any(|f| bright(&f.frame) < 2) {
+            continue;
+        }
+        let inside = |p: Option<[f64; 2]>| {
+            p.is_some_and(|[x, y]| (40.0..472.0).contains(&x) && (40.0..472.0).contains(&y))
+        };
+        let Some(faint) = (0..cat.len() as u32)
+            .filter(|&s| cat.mag()[s as usize] > 6.3)
+            .find(|&s| seq.iter().all(|f| inside(pixel_of(&f.frame, s, &cam))))
+        else {
+            continue;
+        };
+        fields += 1;
+        let mut tracker =
+            Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+        for (i, f) in seq.iter().enumerate() {
+            let mut frame = f.frame.clone();
+            let spot = (i >= 1).then(|| spot_on(&mut frame, faint, &cam));
+            if let Some(o) = spot {
+                // The brightest spot of the frame.
+                frame.magnitudes[o] = frame.magnitudes.iter().copied().fold(9.0, f64::min) - 0.5;
+            }
+            let mut order: Vec<usize> = (0..frame.centroids.len()).collect();
+            order.sort_by(|&x, &y| frame.magnitudes[x].total_cmp(&frame.magnitudes[y]));
+            let xy: Vec<[f64; 2]> = order.iter().map(|&k| frame.centroids[k]).collect();
+            let step = tracker.update(solver, &xy, None, &cam, f.t_s).unwrap();
+            let id = &step.identification;
+            assert!(id.is_identified(), "seed {seed} frame {i}");
+            if let Some(o) = spot {
+                let at = order.iter().position(|&k| k == o).unwrap();
+                assert_eq!(at, 0);
+                assert_eq!(id.catalog_index[at], None, "seed {seed} frame {i}");
+                cases += usize::from(step.mode == TrackMode::Tracking);
+            }
+        }
+    }
+    assert!(
+        fields == 6 && cases >= 20,
+        "{fields} fields, {cases} frames"
+    );
+}
+
+#[test]
 fn a_hint_ten_degrees_off_does_not_name_two_stars_with_brighter_ones_unseen() {
     // Frames (simulation seeds) on which a hint 10° off, with a 1° uncertainty and no fallback,
     // once named two stars: its first spot pair fitted two catalogue stars by chance, at a bound
