@@ -125,9 +125,6 @@ pub const CONFIRM_MARGIN_PX: f64 = 4.0;
 /// in every direction, which along a long smear it is not.
 pub const SMEAR_MIN_ANISOTROPY: f64 = 1.3;
 
-/// The log-likelihood ratio those checks ask of a name (ln 1000, as the verification's).
-pub const SMEAR_AMBIGUITY_LOG_ODDS: f64 = 6.907_755_278_982_137;
-
 /// On the brightness order alone, a named spot whose magnitude from the order (see
 /// [`ORDER_NEIGHBOURS`]) is more than this many magnitudes (or 5 of the order's spreads) brighter
 /// than its star is not named: the verification's check of spots far brighter than their star
@@ -814,7 +811,7 @@ impl Tracker {
     /// names are not decisive once the centroid noise is measured along the image motion and
     /// across it (see [`SMEAR_MIN_ANISOTROPY`]): two named spots whose stars, swapped, fit about
     /// as well are both dropped. The test is the verification's joint assignment
-    /// ([`SMEAR_AMBIGUITY_LOG_ODDS`]) under Gaussian noise of the two spreads, measured over this
+    /// (the same ln 1000 margin) under Gaussian noise of the two spreads, measured over this
     /// solution's and the last ones' named spots. Returns this solution's named spots' squared
     /// residuals along and across the motion, for the spreads of the frames that follow.
     fn smear_rivals(
@@ -879,7 +876,7 @@ impl Tracker {
             return this;
         }
         // Twice the log-likelihood ratio the name must win by, in units of the spreads.
-        let decisive = 2.0 * SMEAR_AMBIGUITY_LOG_ODDS;
+        let decisive = 2.0 * crate::identify::AMBIGUITY_LOG_ODDS;
         let cost = |at: &[f64; 2], star_at: &[f64; 2], u: &[f64; 2]| {
             let e = [at[0] - star_at[0], at[1] - star_at[1]];
             (e[0] * u[0] + e[1] * u[1]).powi(2) / var_along

@@ -63,7 +63,7 @@ pub use cache::SolverCache;
 pub use hinted::{AttitudeHint, HintFallback, HINT_SEARCH_STARS, MAX_HINT_UNCERTAINTY_RAD};
 pub use magbins::MagPairIndex;
 pub use seeds::{SeedTables, RING_ORDER, RING_SLACK, SEED_CANDIDATES};
-pub(crate) use verify::{binomial_tail, median_in_place};
+pub(crate) use verify::{binomial_tail, median_in_place, AMBIGUITY_LOG_ODDS};
 
 /// Frames a batch runs between two looks at its cancel flag (and the most results a cancelled
 /// batch has allocated beyond the chunks it finished).

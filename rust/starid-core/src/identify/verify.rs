@@ -687,7 +687,7 @@ pub(super) const LOOKUP_WORK: usize = 4;
 
 /// Log-likelihood ratio the nearest catalogue star must win by over the second nearest for a
 /// match to count (ln 1000): an unresolved double is left unmatched rather than guessed.
-const AMBIGUITY_LOG_ODDS: f64 = 6.907755278982137;
+pub(crate) const AMBIGUITY_LOG_ODDS: f64 = 6.907755278982137;
 
 /// What the nearest allowed catalogue stars to a centroid say.
 pub(super) enum Nearest {

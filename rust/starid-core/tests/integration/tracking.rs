@@ -54,6 +54,28 @@ fn pixel_of(f: &SimFrame, star: u32, cam: &Camera) -> Option<[f64; 2]> {
     Some([x, y])
 }
 
+/// Pairs of bundled-catalogue stars, both brighter than mag 5.7, `sep_px` apart on the
+/// 12°/512 px camera, in catalogue order.
+fn bright_pairs(sep_px: std::ops::Range<f64>) -> Vec<(u32, u32)> {
+    let cat = bundled();
+    let (v, m) = (cat.vectors(), cat.mag());
+    let px = 12f64.to_radians() / 512.0;
+    let n = cat.len();
+    (0..n)
+        .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
+        .filter(|&(a, b)| m[a] < 5.7 && m[b] < 5.7 && sep_px.contains(&(v[a].angle(&v[b]) / px)))
+        .map(|(a, b)| (a as u32, b as u32))
+        .collect()
+}
+
+/// The attitude that puts the midpoint of stars `a` and `b` on the boresight.
+fn facing(a: u32, b: u32) -> nalgebra::Rotation3<f64> {
+    let cat = bundled();
+    let v = cat.vectors();
+    let centre = (v[a as usize] + v[b as usize]).normalize();
+    nalgebra::Rotation3::rotation_between(&centre, &nalgebra::Vector3::z()).unwrap()
+}
+
 /// A false spot placed on `star` (too faint for the camera) in frame `f`: returns the spot's
 /// index.
 fn spot_on(f: &mut SimFrame, star: u32, cam: &Camera) -> usize {
@@ -526,30 +548,15 @@ fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_brightness_says
     // difference): each spot lies on the other star (as smear along their line can put it, in a
     // frame whose other stars are sharp). Positions name them crosswise; their magnitudes say
     // which is which, and so does the brightness order alone; the tracker names neither wrongly.
-    use nalgebra::{Rotation3, Vector3};
     let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
-    let px = 12f64.to_radians() / 512.0;
-    let v = cat.vectors();
     let m = cat.mag();
-    let (a, b) = (0..cat.len())
-        .filter(|&a| m[a] < 5.7)
-        .flat_map(|a| {
-            (a + 1..cat.len())
-                .filter(move |&b| {
-                    m[b] < 5.7
-                        && (m[a] - m[b]).abs() >= 0.4
-                        && v[a].angle(&v[b]) < 2.0 * px
-                        && v[a].angle(&v[b]) > 1.0 * px
-                })
-                .map(move |b| (a as u32, b as u32))
-        })
-        .max_by(|x, y| {
-            let d = |p: &(u32, u32)| (m[p.0 as usize] - m[p.1 as usize]).abs();
-            d(x).total_cmp(&d(y))
-        })
+    let dm = |p: &(u32, u32)| (m[p.0 as usize] - m[p.1 as usize]).abs();
+    let (a, b) = bright_pairs(1.0..2.0)
+        .into_iter()
+        .filter(|p| dm(p) >= 0.4)
+        .max_by(|x, y| dm(x).total_cmp(&dm(y)))
         .expect("a close pair in the bundled catalogue");
-    let centre = (v[a as usize] + v[b as usize]).normalize();
-    let r0 = Rotation3::rotation_between(&centre, &Vector3::z()).unwrap();
+    let r0 = facing(a, b);
     let seq = sequence_12(20, 0.1, 0.2, Some(r0), 3);
     for order_only in [false, true] {
         let mut tracker =
@@ -607,25 +614,13 @@ fn two_spots_of_an_equal_pair_crossed_along_the_smear_are_not_named() {
     // nearest the other star and the verification, taking the noise as round, names them
     // crosswise. Magnitudes cannot tell them apart. The tracker, which has measured the noise
     // along the motion, names neither (fails with `smear_rivals` off).
-    use nalgebra::{Rotation3, Vector3};
     let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
-    let px = 12f64.to_radians() / 512.0;
-    let v = cat.vectors();
     let m = cat.mag();
-    let (a, b) = (0..cat.len())
-        .filter(|&a| m[a] < 5.7)
-        .find_map(|a| {
-            (a + 1..cat.len())
-                .find(|&b| {
-                    m[b] < 5.7
-                        && (m[a] - m[b]).abs() <= 0.1
-                        && (0.8 * px..3.0 * px).contains(&v[a].angle(&v[b]))
-                })
-                .map(|b| (a as u32, b as u32))
-        })
+    let (a, b) = bright_pairs(0.8..3.0)
+        .into_iter()
+        .find(|p| (m[p.0 as usize] - m[p.1 as usize]).abs() <= 0.1)
         .expect("an equal pair in the bundled catalogue");
-    let centre = (v[a as usize] + v[b as usize]).normalize();
-    let r0 = Rotation3::rotation_between(&centre, &Vector3::z()).unwrap();
+    let r0 = facing(a, b);
     // A sequence whose motion at the pair runs within 20° of the pair's line (the smear along it).
     let pair_line = |f: &SimFrame| {
         let (p, q) = (pixel_of(f, a, &cam)?, pixel_of(f, b, &cam)?);
