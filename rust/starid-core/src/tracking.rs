@@ -134,6 +134,18 @@ pub const SMEAR_MIN_ANISOTROPY: f64 = 1.3;
 /// (3 mag brighter than its star) each of them caught.
 pub const ORDER_BRIGHTER_LIMIT: f64 = 2.0;
 
+/// In tracking mode, with magnitudes, a named spot more than this many magnitudes (or 5 spreads)
+/// fainter than its star is not named when at least [`FAINTER_INVERSIONS_MIN`] named spots of
+/// stars fainter than that star by half as much are brighter than it. A spot too faint for its
+/// star and out of the frame's brightness order is a false spot on a star whose own spot is
+/// missing (just off the edge, say). A saturated star reads fainter than its catalogue magnitude
+/// but still brighter than the spots of fainter stars, so it keeps its name (the verification's
+/// magnitude check is one-sided for it, see [`crate::identify::MAG_BRIGHTER_LIMIT`]).
+pub const MAG_FAINTER_LIMIT: f64 = 1.0;
+
+/// See [`MAG_FAINTER_LIMIT`].
+pub const FAINTER_INVERSIONS_MIN: usize = 2;
+
 /// Fewest named spots (this solution's and the last ones') from which the two spreads are
 /// measured.
 const SMEAR_MIN_NAMED: usize = 6;
@@ -743,6 +755,29 @@ impl Tracker {
                     if let Some(star) = *m {
                         drop[o] |= mags[o] - z < mag[star as usize] - limit;
                     }
+                }
+            }
+            // With magnitudes, spots far fainter than their star and out of the brightness order
+            // (not on the order alone: the magnitudes it implies for the brightest spots are
+            // those of the stars below them, far fainter than theirs).
+            if from_order.is_none() {
+                let fainter = MAG_FAINTER_LIMIT.max(MAG_OUTLIER_SIGMAS * spread);
+                for (o, m) in id.catalog_index.iter().enumerate() {
+                    let Some(star) = *m else { continue };
+                    let m_star = mag[star as usize];
+                    // (A spot with no magnitude, NaN, is not judged.)
+                    let excess = mags[o] - z - m_star;
+                    if excess.is_nan() || excess <= fainter {
+                        continue;
+                    }
+                    // Named spots of stars fainter by half the limit that are brighter.
+                    let inversions = (id.catalog_index.iter().zip(mags))
+                        .filter(|&(q, &m_p)| {
+                            q.is_some_and(|s| mag[s as usize] > m_star + 0.5 * fainter)
+                                && m_p < mags[o]
+                        })
+                        .count();
+                    drop[o] |= inversions >= FAINTER_INVERSIONS_MIN;
                 }
             }
             // (A spot with no magnitude, NaN, fits nothing better.)
