@@ -220,25 +220,16 @@ impl PairIndex {
                 MAX_PAIRS
             )));
         }
-        let mut entries = neighbour_pairs(catalog, max_angle_rad, members);
         // Up to 65 536 stars, each pair packs into one integer whose order is the index's
         // (separation, then the two stars: the bits of a sign-positive f32 order as
         // `total_cmp` does), and integers sort several times faster than compared tuples.
-        if catalog.len() <= NARROW_PAIR_STARS && entries.iter().all(|e| e.0.is_sign_positive()) {
-            let mut keys: Vec<u64> = entries
-                .iter()
-                .map(|&(a, [i, j])| {
-                    (u64::from(a.to_bits()) << 32) | (u64::from(i) << 16) | u64::from(j)
-                })
-                .collect();
-            drop(entries);
-            #[cfg(feature = "parallel")]
-            {
-                use rayon::slice::ParallelSliceMut;
-                keys.par_sort_unstable();
-            }
-            #[cfg(not(feature = "parallel"))]
-            keys.sort_unstable();
+        if catalog.len() <= NARROW_PAIR_STARS {
+            let mut keys = neighbour_pairs(catalog, max_angle_rad, members, |a, i, j| {
+                (u64::from(a.to_bits()) << 32) | (u64::from(i) << 16) | u64::from(j)
+            });
+            // Separations are never negative, so every key has a clear sign bit.
+            debug_assert!(keys.iter().all(|k| k >> 63 == 0));
+            sort_keys(&mut keys, max_angle_rad);
             let angles: Vec<f32> = keys
                 .iter()
                 .map(|&k| f32::from_bits((k >> 32) as u32))
@@ -248,6 +239,7 @@ impl PairIndex {
                 PairStore::Narrow(keys.iter().map(|&k| [(k >> 16) as u16, k as u16]).collect());
             return Ok(Self::from_sorted(&angles, pairs, max_angle_rad));
         }
+        let mut entries = neighbour_pairs(catalog, max_angle_rad, members, |a, i, j| (a, [i, j]));
         let by_angle =
             |a: &(f32, [u32; 2]), b: &(f32, [u32; 2])| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         #[cfg(feature = "parallel")]
@@ -258,12 +250,7 @@ impl PairIndex {
         #[cfg(not(feature = "parallel"))]
         entries.sort_unstable_by(by_angle);
         let angles: Vec<f32> = entries.iter().map(|e| e.0).collect();
-        let pairs = if catalog.len() <= NARROW_PAIR_STARS {
-            // Indices below 65 536: the cast is exact.
-            PairStore::Narrow(entries.iter().map(|e| e.1.map(|i| i as u16)).collect())
-        } else {
-            PairStore::Wide(entries.into_iter().map(|e| e.1).collect())
-        };
+        let pairs = PairStore::Wide(entries.into_iter().map(|e| e.1).collect());
         Ok(Self::from_sorted(&angles, pairs, max_angle_rad))
     }
 
@@ -553,15 +540,17 @@ fn trim<T: Copy + Into<u32>>(
     start..end
 }
 
-/// Every pair of members within `max_angle_rad`, found through the catalogue's zone index.
-fn neighbour_pairs(
+/// Every pair of members within `max_angle_rad`, found through the catalogue's zone index,
+/// as `make(separation, i, j)` with `i < j`.
+fn neighbour_pairs<T: Send>(
     catalog: &Catalog,
     max_angle_rad: f64,
     members: Option<&[bool]>,
-) -> Vec<(f32, [u32; 2])> {
+    make: impl Fn(f32, u32, u32) -> T + Sync,
+) -> Vec<T> {
     let vectors = catalog.vectors();
     let member = |i: usize| members.is_none_or(|m| m[i]);
-    let per_star = |i: usize| -> Vec<(f32, [u32; 2])> {
+    let per_star = |i: usize| -> Vec<T> {
         let mut out = Vec::new();
         if !member(i) {
             return out;
@@ -569,9 +558,9 @@ fn neighbour_pairs(
         let vi: &Vector3<f64> = &vectors[i];
         catalog.for_each_in_cone(vi, max_angle_rad, |j, _| {
             if (j as usize) > i && member(j as usize) {
-                let angle = crate::geometry::angle_between(vi, &vectors[j as usize]);
+                let angle = crate::geometry::unit_separation(vi, &vectors[j as usize]);
                 if angle <= max_angle_rad {
-                    out.push((angle as f32, [i as u32, j]));
+                    out.push(make(angle as f32, i as u32, j));
                 }
             }
         });
@@ -591,9 +580,86 @@ fn neighbour_pairs(
     }
 }
 
+/// Sort packed pair keys (separation bits, then the two stars) whose separations lie in
+/// `[0, max_angle_rad]`: a bucket pass on the squared separation (pairs are about uniform in
+/// it, the sky's area growing with the radius), then each bucket on its own. The order is the
+/// keys' own, as a comparison sort gives, in a third of its time.
+fn sort_keys(keys: &mut Vec<u64>, max_angle_rad: f64) {
+    const PER_BUCKET: usize = 32;
+    let buckets = (keys.len() / PER_BUCKET).max(1);
+    let scale = buckets as f64 / (max_angle_rad * max_angle_rad);
+    // Monotone in the key: a larger separation never lands in an earlier bucket.
+    let bucket = |k: u64| {
+        let a = f64::from(f32::from_bits((k >> 32) as u32));
+        ((a * a * scale) as usize).min(buckets - 1)
+    };
+    let mut starts = vec![0usize; buckets + 1];
+    for &k in keys.iter() {
+        starts[bucket(k) + 1] += 1;
+    }
+    for b in 0..buckets {
+        starts[b + 1] += starts[b];
+    }
+    let mut next = starts.clone();
+    let mut out = vec![0u64; keys.len()];
+    for &k in keys.iter() {
+        let b = bucket(k);
+        out[next[b]] = k;
+        next[b] += 1;
+    }
+    let mut parts: Vec<&mut [u64]> = Vec::with_capacity(buckets);
+    let mut rest = out.as_mut_slice();
+    for b in 0..buckets {
+        let (part, tail) = rest.split_at_mut(starts[b + 1] - starts[b]);
+        parts.push(part);
+        rest = tail;
+    }
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        parts
+            .into_par_iter()
+            .with_min_len(256)
+            .for_each(|p| p.sort_unstable());
+    }
+    #[cfg(not(feature = "parallel"))]
+    parts.into_iter().for_each(|p| p.sort_unstable());
+    *keys = out;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bucket_sort_orders_keys_as_a_comparison_sort() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let max = 0.3f64;
+        for n in [0usize, 1, 31, 1000, 20_000] {
+            let mut keys: Vec<u64> = (0..n)
+                .map(|_| {
+                    // Repeated separations, both ends, and one rounded just past the maximum.
+                    let a = match rng.random_range(0..10) {
+                        0 => 0.0f32,
+                        1 => max as f32,
+                        2 => f32::from_bits((max as f32).to_bits() + 1),
+                        3 => 0.1,
+                        _ => rng.random_range(0.0..max) as f32,
+                    };
+                    let (i, j) = (
+                        rng.random_range(0..60_000u64),
+                        rng.random_range(0..60_000u64),
+                    );
+                    (u64::from(a.to_bits()) << 32) | (i << 16) | j
+                })
+                .collect();
+            let mut expected = keys.clone();
+            expected.sort_unstable();
+            sort_keys(&mut keys, max);
+            assert_eq!(keys, expected, "{n} keys");
+        }
+    }
 
     #[test]
     fn range_holds_every_answer_and_nothing_beyond_its_slack() {
@@ -657,7 +723,7 @@ mod tests {
             ),
         ] {
             let idx = PairIndex::build(&cat, max).unwrap();
-            let mut entries = neighbour_pairs(&cat, max, None);
+            let mut entries = neighbour_pairs(&cat, max, None, |a, i, j| (a, [i, j]));
             entries.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             assert_eq!(idx.len(), entries.len());
             assert!(idx.pairs(0..idx.len()).eq(entries.iter().map(|e| e.1)));
@@ -671,7 +737,7 @@ mod tests {
         )
         .unwrap();
         let idx = PairIndex::build(&grid, 0.2).unwrap();
-        let mut entries = neighbour_pairs(&grid, 0.2, None);
+        let mut entries = neighbour_pairs(&grid, 0.2, None, |a, i, j| (a, [i, j]));
         assert_eq!(entries.len(), 64 * 63 / 2);
         entries.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         assert!(entries.windows(2).any(|w| w[0].0 == w[1].0));

@@ -11,7 +11,7 @@ use std::ops::Range;
 
 use nalgebra::Vector3;
 
-use crate::geometry::angle_between;
+use crate::geometry::unit_separation;
 use crate::kvector::PairIndex;
 
 /// Number of magnitude bins. Each sub-index query trims its two end bins by binary search on
@@ -52,17 +52,21 @@ impl MagPairIndex {
             .map(|k| sorted[(k * n / MAG_BINS).min(n - 1)])
             .collect();
         edges.dedup();
-        let bin = |m: f32| edges.partition_point(|&e| e <= m);
+        // Each star's bin, looked up once rather than once per pair.
+        let star_bin: Vec<usize> = mags
+            .iter()
+            .map(|&m| edges.partition_point(|&e| e <= m))
+            .collect();
         let mut parts: Vec<Vec<[u32; 2]>> = vec![Vec::new(); MAG_BINS * MAG_BINS];
         for [p, q] in pairs.pairs(0..pairs.len()) {
-            let (bp, bq) = (bin(mags[p as usize]), bin(mags[q as usize]));
+            let (bp, bq) = (star_bin[p as usize], star_bin[q as usize]);
             parts[bp.min(bq) * MAG_BINS + bp.max(bq)].push([p, q]);
         }
         let sub = |ps: Vec<[u32; 2]>| {
             // The separations as the pair index's build rounded them: the same order.
             let angles: Vec<f32> = ps
                 .iter()
-                .map(|&[p, q]| angle_between(&vectors[p as usize], &vectors[q as usize]) as f32)
+                .map(|&[p, q]| unit_separation(&vectors[p as usize], &vectors[q as usize]) as f32)
                 .collect();
             PairIndex::from_sorted_pairs(&angles, &ps, mags.len(), pairs.max_angle_rad())
         };
