@@ -681,6 +681,39 @@ fn two_spots_of_an_equal_pair_crossed_along_the_smear_are_not_named() {
     assert!(crossed >= 10, "{crossed} frames with the pair crossed");
 }
 
+/// Tracks `seq` from a fresh tracker, `plant` changing every frame but the first and returning
+/// the spot that must stay unnamed; on the order alone the spots go brightest first without
+/// magnitudes. Every frame must be identified; returns how many planted frames were tracked.
+fn planted_spot_stays_unnamed(
+    seq: &[starid_core::simulate::SequenceFrame],
+    order_alone: bool,
+    label: &str,
+    mut plant: impl FnMut(&mut SimFrame) -> usize,
+) -> usize {
+    let (cam, solver) = (camera_12(), solver_12());
+    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let mut cases = 0;
+    for (i, f) in seq.iter().enumerate() {
+        let mut frame = f.frame.clone();
+        let spot = (i >= 1).then(|| plant(&mut frame));
+        let mut order: Vec<usize> = (0..frame.centroids.len()).collect();
+        if order_alone {
+            order.sort_by(|&x, &y| frame.magnitudes[x].total_cmp(&frame.magnitudes[y]));
+        }
+        let xy: Vec<[f64; 2]> = order.iter().map(|&k| frame.centroids[k]).collect();
+        let mags = (!order_alone).then_some(&frame.magnitudes[..]);
+        let step = tracker.update(solver, &xy, mags, &cam, f.t_s).unwrap();
+        let id = &step.identification;
+        assert!(id.is_identified(), "{label} frame {i}");
+        if let Some(o) = spot {
+            let at = order.iter().position(|&k| k == o).unwrap();
+            assert_eq!(id.catalog_index[at], None, "{label} frame {i}");
+            cases += usize::from(step.mode == TrackMode::Tracking);
+        }
+    }
+    cases
+}
+
 #[test]
 fn on_the_order_alone_a_bright_false_spot_on_a_faint_star_is_not_named() {
     // From the second frame of a sequence (before any streak or magnitude count could hold the
@@ -689,7 +722,7 @@ fn on_the_order_alone_a_bright_false_spot_on_a_faint_star_is_not_named() {
     // implies is far brighter than the star's. The
     // tracker, told the order alone, does not name it (fails with the order's too-bright check
     // off).
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let (cat, cam) = (bundled(), camera_12());
     let mut cases = 0;
     let mut fields = 0;
     for seed in 0..400 {
@@ -716,28 +749,12 @@ fn on_the_order_alone_a_bright_false_spot_on_a_faint_star_is_not_named() {
             continue;
         };
         fields += 1;
-        let mut tracker =
-            Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
-        for (i, f) in seq.iter().enumerate() {
-            let mut frame = f.frame.clone();
-            let spot = (i >= 1).then(|| spot_on(&mut frame, faint, &cam));
-            if let Some(o) = spot {
-                // The brightest spot of the frame.
-                frame.magnitudes[o] = frame.magnitudes.iter().copied().fold(9.0, f64::min) - 0.5;
-            }
-            let mut order: Vec<usize> = (0..frame.centroids.len()).collect();
-            order.sort_by(|&x, &y| frame.magnitudes[x].total_cmp(&frame.magnitudes[y]));
-            let xy: Vec<[f64; 2]> = order.iter().map(|&k| frame.centroids[k]).collect();
-            let step = tracker.update(solver, &xy, None, &cam, f.t_s).unwrap();
-            let id = &step.identification;
-            assert!(id.is_identified(), "seed {seed} frame {i}");
-            if let Some(o) = spot {
-                let at = order.iter().position(|&k| k == o).unwrap();
-                assert_eq!(at, 0);
-                assert_eq!(id.catalog_index[at], None, "seed {seed} frame {i}");
-                cases += usize::from(step.mode == TrackMode::Tracking);
-            }
-        }
+        cases += planted_spot_stays_unnamed(&seq, true, &format!("seed {seed}"), |frame| {
+            let o = spot_on(frame, faint, &cam);
+            // The brightest spot of the frame.
+            frame.magnitudes[o] = frame.magnitudes.iter().copied().fold(9.0, f64::min) - 0.5;
+            o
+        });
     }
     assert!(
         fields == 6 && cases >= 20,
@@ -827,7 +844,7 @@ fn a_false_spot_far_fainter_than_a_bright_star_whose_own_spot_is_missing_is_not_
     // stars a magnitude fainter than that star. The tracker, told the magnitudes or the
     // brightness order alone, does not name it (fails with `MAG_FAINTER_LIMIT`'s check off: the
     // verification's magnitude check is one-sided, for saturated stars).
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let (cat, cam) = (bundled(), camera_12());
     for order_alone in [false, true] {
         let mut fields = 0;
         let mut cases = 0;
@@ -852,39 +869,17 @@ fn a_false_spot_far_fainter_than_a_bright_star_whose_own_spot_is_missing_is_not_
                 continue;
             };
             fields += 1;
-            let mut tracker =
-                Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
-            for (i, f) in seq.iter().enumerate() {
-                let mut frame = f.frame.clone();
-                let spot = (i >= 1).then(|| {
-                    let own = frame.catalog_index.iter().position(|&s| s == Some(bright));
-                    let own = own.expect("imaged");
-                    frame.centroids.remove(own);
-                    frame.magnitudes.remove(own);
-                    frame.catalog_index.remove(own);
-                    let o = spot_on(&mut frame, bright, &cam);
-                    frame.magnitudes[o] += 2.0;
-                    o
-                });
-                // On the order alone, the spots brightest first and no magnitudes.
-                let mut order: Vec<usize> = (0..frame.centroids.len()).collect();
-                if order_alone {
-                    order.sort_by(|&x, &y| frame.magnitudes[x].total_cmp(&frame.magnitudes[y]));
-                }
-                let xy: Vec<[f64; 2]> = order.iter().map(|&k| frame.centroids[k]).collect();
-                let mags = (!order_alone).then_some(&frame.magnitudes[..]);
-                let step = tracker.update(solver, &xy, mags, &cam, f.t_s).unwrap();
-                let id = &step.identification;
-                assert!(id.is_identified(), "seed {seed} frame {i}");
-                if let Some(o) = spot {
-                    let at = order.iter().position(|&k| k == o).unwrap();
-                    assert_eq!(
-                        id.catalog_index[at], None,
-                        "seed {seed} frame {i} {order_alone}"
-                    );
-                    cases += usize::from(step.mode == TrackMode::Tracking);
-                }
-            }
+            let label = format!("seed {seed} order alone {order_alone}");
+            cases += planted_spot_stays_unnamed(&seq, order_alone, &label, |frame| {
+                let own = frame.catalog_index.iter().position(|&s| s == Some(bright));
+                let own = own.expect("imaged");
+                frame.centroids.remove(own);
+                frame.magnitudes.remove(own);
+                frame.catalog_index.remove(own);
+                let o = spot_on(frame, bright, &cam);
+                frame.magnitudes[o] += 2.0;
+                o
+            });
         }
         assert!(
             fields == 6 && cases >= 20,
