@@ -60,8 +60,8 @@ pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 }
 
 /// Angle in radians between two unit vectors from their chord, `2·asin(|a − b| / 2)`: as
-/// accurate as [`angle_between`] below 80° (it falls back to it beyond) and twice as fast,
-/// for the index builds that measure every pair of a catalogue.
+/// accurate as [`angle_between`] up to 81° (it falls back to it beyond) and about twice as
+/// fast, for the index builds that measure every pair of a catalogue.
 ///
 /// # Example
 /// ```

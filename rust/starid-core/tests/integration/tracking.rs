@@ -751,8 +751,10 @@ fn on_the_order_alone_a_bright_false_spot_on_a_faint_star_is_not_named() {
         fields += 1;
         cases += planted_spot_stays_unnamed(&seq, true, &format!("seed {seed}"), |frame| {
             let o = spot_on(frame, faint, &cam);
-            // The brightest spot of the frame.
+            // The brightest spot of the frame: first in the brightness order.
             frame.magnitudes[o] = frame.magnitudes.iter().copied().fold(9.0, f64::min) - 0.5;
+            let m = &frame.magnitudes;
+            assert!((0..m.len()).all(|k| k == o || m[k] > m[o]));
             o
         });
     }
