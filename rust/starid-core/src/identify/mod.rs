@@ -2023,6 +2023,9 @@ struct Scratch {
     /// frame's entries unknown clears these bits: writing NaN over every entry, 14 kB for 24
     /// search stars, cost 600 instructions and 90 cache misses per S1 frame.)
     angle_known: Vec<u64>,
+    /// Each centroid pair's range in the pair index of an ungated Pyramid step (row-major with
+    /// `Search::stride`), and one bit per entry: whether the step has found it yet.
+    side_ranges: (Vec<[u32; 2]>, Vec<u64>),
     /// Sub-index ranges of each centroid pair of a gated pass, read once per pass.
     side_cache: SideCache,
     /// Centroids torn between two stars in the last matching pass.

@@ -24,6 +24,14 @@ impl Search<'_> {
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut angle = std::mem::take(&mut self.scratch.angles);
         let mut known = std::mem::take(&mut self.scratch.angle_known);
+        // The step's side ranges: its index and tolerance are fixed, so each pair's is found once.
+        let n = self.stride * self.stride;
+        let ranges = &mut self.scratch.side_ranges;
+        if ranges.0.len() < n {
+            ranges.0.resize(n, [0; 2]);
+        }
+        ranges.1.clear();
+        ranges.1.resize(n.div_ceil(64), 0);
         let result = self.run_step(stars, sigma_px, cap, (&mut angle, &mut known));
         self.scratch.angles = angle;
         self.scratch.angle_known = known;
@@ -280,7 +288,23 @@ impl Search<'_> {
         out.clear();
         let idx = self.pairs;
         let cat = self.solver.catalog.vectors();
-        let [r_ij, r_ik, r_jk] = windows.map(|w| idx.range_exact(&w, cat));
+        // Each side's range, from the step's cache when a triangle before this one had the side
+        // (its centroid pair at search positions `tri_pos`).
+        let [a, b, c] = self.tri_pos;
+        let stride = self.stride;
+        let (store, known) = &mut self.scratch.side_ranges;
+        let [r_ij, r_ik, r_jk] = [(a, b, 0), (a, c, 1), (b, c, 2)].map(|(p, q, e)| {
+            let key = p * stride + q;
+            let (word, bit) = (key / 64, 1u64 << (key % 64));
+            if known[word] & bit == 0 {
+                let r = idx.range_exact(&windows[e], cat);
+                store[key] = [r.start as u32, r.end as u32];
+                known[word] |= bit;
+            }
+            let [lo, hi] = store[key];
+            lo as usize..hi as usize
+        });
+        // The work counted as if each triangle had read its sides afresh: the budget is unchanged.
         self.pairs_visited += r_ij.len() + r_ik.len() + r_jk.len();
         if r_ij.is_empty() || r_ik.is_empty() || r_jk.is_empty() {
             return;
