@@ -13,6 +13,8 @@
 //!   `Σ bᵢ · R rᵢ` vanishes: the SVD optimum. It falls back to the SVD when a step fails.
 //!   Both sides come from two 3×3 sums made once, `B = Σ bᵢ rᵢᵀ` and `C = Σ rᵢ rᵢᵀ`:
 //!   `Σ pᵢ pᵢᵀ = R C Rᵀ`, and `Σ pᵢ × bᵢ` is the axial vector of `M − Mᵀ` with `M = B Rᵀ`.
+//! - [`wahba_steps`] takes at most a given number of those steps: the Pyramid fits each triangle
+//!   hypothesis, most of them false, with one step from TRIAD before confirming it.
 //! - [`triad`] gives the starting rotation from two pairs.
 
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
@@ -82,6 +84,62 @@ pub fn wahba_from(
     ref_icrs: &[Vector3<f64>],
     start: &Rotation3<f64>,
 ) -> Option<Rotation3<f64>> {
+    match gauss_newton(obs_cam, ref_icrs, start, GAUSS_NEWTON_MAX_STEPS)? {
+        GaussNewton::Converged(r) => Some(r),
+        GaussNewton::Stopped(_) | GaussNewton::Failed => wahba_svd(obs_cam, ref_icrs),
+    }
+}
+
+/// [`wahba_from`]'s Gauss–Newton steps, at most `steps` of them: the attitude they reach,
+/// converged or not (the SVD's when a step fails). From TRIAD along a triangle's longest side,
+/// one step leaves the attitude within 0.15 σ of the optimum for 99 % of the triangles the
+/// Pyramid admits at noise σ, and within σ for all (a test): enough to confirm a hypothesis of
+/// three stars (within 8 σ), which most often is false, and whose refit from every match then
+/// converges. The iteration to convergence took 4.3 steps a triangle on average.
+///
+/// Returns `None` as [`wahba_svd`] does.
+///
+/// # Example
+/// ```
+/// use nalgebra::{Rotation3, Vector3};
+/// use starid_core::attitude::{wahba_from, wahba_steps};
+/// let r = starid_core::geometry::attitude_from_radec_roll(2.0, -0.5, 0.3);
+/// let refs: Vec<Vector3<f64>> = (0..3).map(|k| Vector3::new(1.0, k as f64 * 0.1, 0.3 - 0.2 * (k % 2) as f64).normalize()).collect();
+/// let obs: Vec<Vector3<f64>> = refs.iter().map(|v| r * v).collect();
+/// let start = r * Rotation3::from_euler_angles(1e-3, -2e-3, 1e-3);
+/// let one = wahba_steps(&obs, &refs, &start, 2).unwrap();
+/// assert!(starid_core::geometry::rotation_angle_between(&one, &r) < 1e-5);
+/// ```
+pub fn wahba_steps(
+    obs_cam: &[Vector3<f64>],
+    ref_icrs: &[Vector3<f64>],
+    start: &Rotation3<f64>,
+    steps: usize,
+) -> Option<Rotation3<f64>> {
+    match gauss_newton(obs_cam, ref_icrs, start, steps)? {
+        GaussNewton::Converged(r) | GaussNewton::Stopped(r) => Some(r),
+        GaussNewton::Failed => wahba_svd(obs_cam, ref_icrs),
+    }
+}
+
+/// Where [`gauss_newton`] ended.
+enum GaussNewton {
+    /// The last step, or the next one as the last two predict it, was negligible.
+    Converged(Rotation3<f64>),
+    /// The steps allowed ran out first.
+    Stopped(Rotation3<f64>),
+    /// The normal matrix is singular, or a step was not finite.
+    Failed,
+}
+
+/// Gauss–Newton from `start`, at most `max_steps` steps; `None` for too few or unpaired
+/// directions.
+fn gauss_newton(
+    obs_cam: &[Vector3<f64>],
+    ref_icrs: &[Vector3<f64>],
+    start: &Rotation3<f64>,
+    max_steps: usize,
+) -> Option<GaussNewton> {
     if obs_cam.len() < 2 || obs_cam.len() != ref_icrs.len() {
         return None;
     }
@@ -97,11 +155,11 @@ pub fn wahba_from(
     }
     let n = obs_cam.len() as f64;
     let Some(inverse) = spd3_inverse(&(Matrix3::identity() * n - c)) else {
-        return wahba_svd(obs_cam, ref_icrs);
+        return Some(GaussNewton::Failed);
     };
     let mut r = *start;
     let mut last_step = 0.0;
-    for _ in 0..GAUSS_NEWTON_MAX_STEPS {
+    for _ in 0..max_steps {
         let m = r.matrix().transpose() * b;
         let gradient = Vector3::new(
             m[(2, 1)] - m[(1, 2)],
@@ -110,7 +168,7 @@ pub fn wahba_from(
         );
         let step = inverse * gradient;
         if !step.iter().all(|x| x.is_finite()) {
-            break;
+            return Some(GaussNewton::Failed);
         }
         let q = UnitQuaternion::from_quaternion(Quaternion::new(
             1.0,
@@ -124,11 +182,11 @@ pub fn wahba_from(
         // is below the tolerance.
         let size = step.norm();
         if size < GAUSS_NEWTON_DONE_RAD || size * size < GAUSS_NEWTON_NEXT_RAD * last_step {
-            return Some(r);
+            return Some(GaussNewton::Converged(r));
         }
         last_step = size;
     }
-    wahba_svd(obs_cam, ref_icrs)
+    Some(GaussNewton::Stopped(r))
 }
 
 /// The inverse of a symmetric positive-definite 3×3 `m`, by cofactors (the normal matrix of a
@@ -186,6 +244,72 @@ pub fn wahba_svd(obs_cam: &[Vector3<f64>], ref_icrs: &[Vector3<f64>]) -> Option<
 mod tests {
     use super::*;
     use nalgebra::Unit;
+
+    #[test]
+    fn one_gauss_newton_step_from_triad_along_the_longest_side_lands_near_the_optimum() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let mut off: Vec<f64> = Vec::new();
+        // Triangles of a 12° field seen with 1 px of noise per axis at 2 400 px focal length (the
+        // noisiest step of the search's ladder, 4e-4 rad), as the Pyramid admits them: sides of at
+        // least 2 · 3√2 σ, a triple product of at least 3 σ times the perimeter.
+        let sigma = 4e-4;
+        while off.len() < 4000 {
+            let r = crate::geometry::attitude_from_radec_roll(
+                rng.random_range(0.0..std::f64::consts::TAU),
+                rng.random_range(-1.5..1.5),
+                rng.random_range(0.0..std::f64::consts::TAU),
+            );
+            let refs: Vec<Vector3<f64>> = (0..3)
+                .map(|_| {
+                    Vector3::new(
+                        rng.random_range(-0.1..0.1),
+                        rng.random_range(-0.1..0.1),
+                        1.0,
+                    )
+                    .normalize()
+                })
+                .collect();
+            let obs: Vec<Vector3<f64>> = refs
+                .iter()
+                .map(|v| {
+                    let e = Vector3::new(rng.random::<f64>(), rng.random::<f64>(), 0.0);
+                    // Uniform in ±√3 σ: a standard deviation of σ.
+                    (r * v + 2.0 * 3f64.sqrt() * sigma * (e - Vector3::new(0.5, 0.5, 0.0)))
+                        .normalize()
+                })
+                .collect();
+            let sides = [(0, 1), (0, 2), (1, 2)].map(|(a, b)| obs[a].angle(&obs[b]));
+            let tp = obs[0].dot(&obs[1].cross(&obs[2]));
+            if sides
+                .iter()
+                .any(|&t| t < 2.0 * 3.0 * std::f64::consts::SQRT_2 * sigma)
+                || tp.abs() < 3.0 * sigma * sides.iter().sum::<f64>()
+            {
+                continue;
+            }
+            let long = (0..3)
+                .max_by(|&x, &y| sides[x].total_cmp(&sides[y]))
+                .unwrap();
+            let (p, q) = [(0, 1), (0, 2), (1, 2)][long];
+            let start = triad(&obs[p], &obs[q], &refs[p], &refs[q]).unwrap();
+            let best = wahba_from(&obs, &refs, &start).unwrap();
+            let one = wahba_steps(&obs, &refs, &start, 1).unwrap();
+            off.push(crate::geometry::rotation_angle_between(&one, &best) / sigma);
+            // With steps enough, the same iterates as `wahba_from`, bit for bit.
+            assert_eq!(
+                wahba_steps(&obs, &refs, &start, GAUSS_NEWTON_MAX_STEPS),
+                Some(best)
+            );
+        }
+        off.sort_by(f64::total_cmp);
+        let at = |q: f64| off[((off.len() - 1) as f64 * q) as usize];
+        // In σ: the Pyramid confirms within 8 σ, and the verification refits from every match.
+        assert!(at(0.99) < 0.15, "99 % within {} σ", at(0.99));
+        assert!(at(1.0) < 1.0, "all within {} σ", at(1.0));
+        // Not yet the optimum: the step is what is tested.
+        assert!(at(0.5) > 1e-6, "median {} σ", at(0.5));
+    }
 
     #[test]
     fn the_three_by_three_inverse_matches_cholesky() {

@@ -10,8 +10,12 @@ use super::{
     Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, CONFIRM_POOL, MATCH_RADIUS_SIGMAS,
     STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
 };
-use crate::attitude::{triad, wahba_from};
+use crate::attitude::{triad, wahba_steps};
 use crate::kvector::{AngleWindow, Pairs};
+
+/// Gauss–Newton steps from TRIAD that fit a triangle hypothesis's attitude to its three stars
+/// before confirmation (see [`wahba_steps`]).
+const TRIANGLE_FIT_STEPS: usize = 1;
 
 impl Search<'_> {
     /// One pass: Pyramid search over the brightest `stars` centroids in `self.pairs` at
@@ -151,10 +155,18 @@ impl Search<'_> {
                     self.tri_pos = [a, b, c];
                     let windows =
                         sides.map(|t| AngleWindow::around(t[0], [t[1], t[2]], eps, eps_trig));
+                    // The longest side: 0 = i–j, 1 = i–k, 2 = j–k.
+                    let long_side = if t_ij >= t_ik && t_ij >= t_jk {
+                        0
+                    } else if t_ik >= t_jk {
+                        1
+                    } else {
+                        2
+                    };
                     let found = match self.try_triangle(
                         [i, j, k],
                         windows,
-                        tp_obs,
+                        (tp_obs, long_side),
                         (r_confirm, confirmations),
                         sigma_rad,
                     ) {
@@ -209,7 +221,7 @@ impl Search<'_> {
         &mut self,
         [i, j, k]: [usize; 3],
         windows: [AngleWindow; 3],
-        tp_obs: f64,
+        (tp_obs, long_side): (f64, usize),
         (r_confirm, confirmations): (f64, usize),
         sigma_rad: f64,
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
@@ -245,9 +257,21 @@ impl Search<'_> {
             }
             self.hypotheses += 1;
             let obs = self.obs[usize::from(mirrored)];
-            let Some(r) = triad(&obs[i], &obs[j], va, vb)
-                .and_then(|start| wahba_from(&[obs[i], obs[j], obs[k]], &[*va, *vb, *vc], &start))
-            else {
+            // TRIAD along the longest side (its direction the least disturbed by the noise), then
+            // one Gauss–Newton step over the three stars.
+            let ((p, vp), (q, vq)) = match long_side {
+                0 => ((i, va), (j, vb)),
+                1 => ((i, va), (k, vc)),
+                _ => ((j, vb), (k, vc)),
+            };
+            let Some(r) = triad(&obs[p], &obs[q], vp, vq).and_then(|start| {
+                wahba_steps(
+                    &[obs[i], obs[j], obs[k]],
+                    &[*va, *vb, *vc],
+                    &start,
+                    TRIANGLE_FIT_STEPS,
+                )
+            }) else {
                 continue;
             };
             if !self.confirmed(
