@@ -103,12 +103,15 @@ pub fn wahba_from(
 /// ```
 /// use nalgebra::{Rotation3, Vector3};
 /// use starid_core::attitude::{wahba_from, wahba_steps};
+/// use starid_core::geometry::rotation_angle_between;
 /// let r = starid_core::geometry::attitude_from_radec_roll(2.0, -0.5, 0.3);
 /// let refs: Vec<Vector3<f64>> = (0..3).map(|k| Vector3::new(1.0, k as f64 * 0.1, 0.3 - 0.2 * (k % 2) as f64).normalize()).collect();
 /// let obs: Vec<Vector3<f64>> = refs.iter().map(|v| r * v).collect();
 /// let start = r * Rotation3::from_euler_angles(1e-3, -2e-3, 1e-3);
-/// let one = wahba_steps(&obs, &refs, &start, 2).unwrap();
-/// assert!(starid_core::geometry::rotation_angle_between(&one, &r) < 1e-5);
+/// // One step goes most of the way; the steps to convergence are `wahba_from`'s.
+/// let one = wahba_steps(&obs, &refs, &start, 1).unwrap();
+/// assert!(rotation_angle_between(&one, &r) < 0.01 * rotation_angle_between(&start, &r));
+/// assert_eq!(wahba_steps(&obs, &refs, &start, 8), wahba_from(&obs, &refs, &start));
 /// ```
 pub fn wahba_steps(
     obs_cam: &[Vector3<f64>],
