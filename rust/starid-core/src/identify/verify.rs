@@ -284,7 +284,7 @@ impl Search<'_> {
                     }));
                     (d.len() >= 3).then(|| {
                         let k = d.len() / 2;
-                        *d.select_nth_unstable_by(k, f64::total_cmp).1
+                        kth_in_place(d, k)
                     })
                 }
                 _ => None,
@@ -989,15 +989,7 @@ pub(crate) fn median_in_place(v: &mut [f64]) -> f64 {
     if k <= MEDIAN_INSERTION_MAX {
         // A few dozen values (the matches of a frame): sorted by insertion, cheaper than a
         // selection at this size; the same two middle values either way.
-        for i in 1..k {
-            let x = v[i];
-            let mut j = i;
-            while j > 0 && v[j - 1] > x {
-                v[j] = v[j - 1];
-                j -= 1;
-            }
-            v[j] = x;
-        }
+        insertion_sort(v);
         return if k % 2 == 0 {
             0.5 * (v[k / 2 - 1] + v[k / 2])
         } else {
@@ -1011,6 +1003,32 @@ pub(crate) fn median_in_place(v: &mut [f64]) -> f64 {
         upper
     };
     0.5 * (lower + upper)
+}
+
+/// The `k`-th smallest of `v` (0-based; reordered): by insertion sort up to
+/// [`MEDIAN_INSERTION_MAX`] values, else by selection. `k` must be below `v.len()`, and `v` must
+/// hold no NaN (the two ways then agree on the value).
+pub(crate) fn kth_in_place(v: &mut [f64], k: usize) -> f64 {
+    if v.len() <= MEDIAN_INSERTION_MAX {
+        insertion_sort(v);
+        v[k]
+    } else {
+        *v.select_nth_unstable_by(k, f64::total_cmp).1
+    }
+}
+
+/// Sort a few values ascending in place (no NaN).
+#[inline]
+fn insertion_sort(v: &mut [f64]) {
+    for i in 1..v.len() {
+        let x = v[i];
+        let mut j = i;
+        while j > 0 && v[j - 1] > x {
+            v[j] = v[j - 1];
+            j -= 1;
+        }
+        v[j] = x;
+    }
 }
 
 /// Most centroids torn between two stars whose owners `match_all` finds by scanning the claims
@@ -1102,6 +1120,27 @@ mod tests {
                 };
                 let got = median_in_place(&mut v.clone());
                 assert_eq!(got, want, "k = {k}: {v:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn kth_is_the_sorted_values_kth_at_every_size_and_rank() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(12);
+        // Both sides of MEDIAN_INSERTION_MAX, with ties and signed zeros, every rank.
+        for len in 1..=70usize {
+            let v: Vec<f64> = (0..len)
+                .map(|i| match i % 7 {
+                    0 => 0.0,
+                    1 => -0.0,
+                    _ => (rng.random_range(-3.0..3.0f64) * 4.0).round() / 4.0,
+                })
+                .collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            for (k, &want) in sorted.iter().enumerate() {
+                assert_eq!(kth_in_place(&mut v.clone(), k), want, "k = {k}: {v:?}");
             }
         }
     }
