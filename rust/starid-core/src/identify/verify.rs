@@ -1097,20 +1097,33 @@ pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
 mod tests {
     use super::*;
 
+    /// `len` values with ties and signed zeros: every `period`-th value 0, the next −0, the rest
+    /// uniform in ±`half_range` rounded to multiples of 1/`steps`.
+    fn tied_values(
+        rng: &mut rand::rngs::StdRng,
+        len: usize,
+        period: usize,
+        half_range: f64,
+        steps: f64,
+    ) -> Vec<f64> {
+        use rand::Rng;
+        (0..len)
+            .map(|i| match i % period {
+                0 => 0.0,
+                1 => -0.0,
+                _ => (rng.random_range(-half_range..half_range) * steps).round() / steps,
+            })
+            .collect()
+    }
+
     #[test]
     fn median_is_the_middle_of_the_sorted_values_at_every_size() {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         let mut rng = rand::rngs::StdRng::seed_from_u64(11);
         // Both sides of MEDIAN_INSERTION_MAX, with ties and signed zeros.
         for k in 1..=80usize {
             for _ in 0..20 {
-                let v: Vec<f64> = (0..k)
-                    .map(|i| match i % 5 {
-                        0 => 0.0,
-                        1 => -0.0,
-                        _ => (rng.random_range(-4.0..4.0f64) * 8.0).round() / 8.0,
-                    })
-                    .collect();
+                let v = tied_values(&mut rng, k, 5, 4.0, 8.0);
                 let mut sorted = v.clone();
                 sorted.sort_by(f64::total_cmp);
                 let want = if k % 2 == 0 {
@@ -1126,17 +1139,11 @@ mod tests {
 
     #[test]
     fn kth_is_the_sorted_values_kth_at_every_size_and_rank() {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         let mut rng = rand::rngs::StdRng::seed_from_u64(12);
         // Both sides of MEDIAN_INSERTION_MAX, with ties and signed zeros, every rank.
         for len in 1..=70usize {
-            let v: Vec<f64> = (0..len)
-                .map(|i| match i % 7 {
-                    0 => 0.0,
-                    1 => -0.0,
-                    _ => (rng.random_range(-3.0..3.0f64) * 4.0).round() / 4.0,
-                })
-                .collect();
+            let v = tied_values(&mut rng, len, 7, 3.0, 4.0);
             let mut sorted = v.clone();
             sorted.sort_by(f64::total_cmp);
             for (k, &want) in sorted.iter().enumerate() {
