@@ -367,17 +367,10 @@ impl Search<'_> {
         );
         let adj = &self.scratch.adj_ik;
         let geometry = (cat, [cos_lo, cos_hi], [shared, walk_other, look_other]);
-        // A narrow fill answers from its marks (see `Adjacency::marks_live`); the walked stars
-        // are 16-bit there.
+        // A byte-marked fill answers from its marks (see `Adjacency::bytes_live`); the walked
+        // stars are 16-bit there.
         match adj.live_marks() {
-            Some(LiveMarks::Bytes(marks)) => walk_pairs(
-                idx.pairs(walk.0.clone()),
-                adj,
-                |x| marks.has_list(x as u16),
-                geometry,
-                out,
-            ),
-            Some(LiveMarks::Bits(marks)) => walk_pairs(
+            Some(marks) => walk_pairs(
                 idx.pairs(walk.0.clone()),
                 adj,
                 |x| marks.has_list(x as u16),
@@ -722,29 +715,13 @@ pub(super) struct Adjacency {
     /// [`BYTE_MARKS_MAX_STARS`]).
     narrow_bytes: Option<Box<ByteMarks>>,
     narrow_bits: Option<Box<BitMarks>>,
-    /// Whether the last fill left its marks set (bytes or bits, as the catalogue's size chose),
-    /// saying which wanted stars got a list. The walk asks them which stars hold a list instead
-    /// of `head` (the walked stars' marks are in the cache from the fill; `head`'s 32 kB for the
-    /// bundled catalogue were not: 100 misses per S1 frame in callgrind's simulation; its 150 kB
-    /// for K2's 37 600 stars missed a 512 kB cache 159 times per typical scene, a third of the
-    /// scene's misses), then clears them with the same pairs ([`Adjacency::clear_marks`]).
-    marks_live: bool,
-    /// Whether the live marks are bits (else bytes).
-    marks_bits: bool,
-}
-
-/// Clear the marks of the stars of `pairs`.
-fn clear_pairs<'a, M: Marks>(marks: &mut M, pairs: impl Iterator<Item = &'a [u16; 2]>) {
-    for &[p, q] in pairs {
-        marks.clear(p);
-        marks.clear(q);
-    }
-}
-
-/// The marks a narrow fill left for the walk (see [`Adjacency::live_marks`]).
-pub(super) enum LiveMarks<'a> {
-    Bytes(&'a ByteMarks),
-    Bits(&'a BitMarks),
+    /// Whether the last fill left its byte marks set, with 2 at the wanted stars that got a
+    /// list. The walk asks them which stars hold a list instead of `head` (the walked stars'
+    /// marks are in the cache from the fill; `head`'s 32 kB for the bundled catalogue were not:
+    /// 100 misses per S1 frame in callgrind's simulation), then clears them with the same pairs
+    /// ([`Adjacency::clear_marks`]). (Bit marks keeping a second bit for the lists cost K2 12 %
+    /// more instructions for 17 % fewer first-level misses: they are cleared by the fill.)
+    bytes_live: bool,
 }
 
 /// Per 16-bit star, one byte: 1 wanted, 2 wanted and listed, else 0.
@@ -758,26 +735,8 @@ impl ByteMarks {
     }
 }
 
-/// Per 16-bit star, two bits in two tables: wanted, and (for the walk) wanted and listed.
-pub(super) struct BitMarks {
-    wanted: [u64; NARROW_STARS / 64],
-    lists: [u64; NARROW_STARS / 64],
-}
-
-impl BitMarks {
-    fn new() -> Box<Self> {
-        Box::new(Self {
-            wanted: [0; NARROW_STARS / 64],
-            lists: [0; NARROW_STARS / 64],
-        })
-    }
-
-    /// Whether `s` is wanted and has a list.
-    #[inline]
-    pub(super) fn has_list(&self, s: u16) -> bool {
-        (self.lists[usize::from(s >> 6)] >> (s & 63)) & 1 != 0
-    }
-}
+/// Per 16-bit star, a bit: wanted.
+pub(super) struct BitMarks([u64; NARROW_STARS / 64]);
 
 /// The marks of a narrow fill: bytes or bits (see [`BYTE_MARKS_MAX_STARS`]).
 trait Marks {
@@ -813,21 +772,17 @@ impl Marks for ByteMarks {
 impl Marks for BitMarks {
     #[inline]
     fn set(&mut self, s: u16) {
-        self.wanted[usize::from(s >> 6)] |= 1 << (s & 63);
+        self.0[usize::from(s >> 6)] |= 1 << (s & 63);
     }
     #[inline]
-    fn listed(&mut self, s: u16) {
-        self.lists[usize::from(s >> 6)] |= 1 << (s & 63);
-    }
+    fn listed(&mut self, _: u16) {}
     #[inline]
     fn get(&self, s: u16) -> bool {
-        (self.wanted[usize::from(s >> 6)] >> (s & 63)) & 1 != 0
+        (self.0[usize::from(s >> 6)] >> (s & 63)) & 1 != 0
     }
     #[inline]
     fn clear(&mut self, s: u16) {
-        // Every listed star is wanted: clearing the words of the wanted stars clears both.
-        self.wanted[usize::from(s >> 6)] = 0;
-        self.lists[usize::from(s >> 6)] = 0;
+        self.0[usize::from(s >> 6)] = 0;
     }
 }
 
@@ -838,15 +793,11 @@ impl Adjacency {
             self.head[s as usize] = NONE;
         }
         // Marks no walk cleared: all of them (never on the search's path).
-        if self.marks_live {
+        if self.bytes_live {
             if let Some(m) = self.narrow_bytes.as_mut() {
                 m.0.fill(0);
             }
-            if let Some(m) = self.narrow_bits.as_mut() {
-                m.wanted.fill(0);
-                m.lists.fill(0);
-            }
-            self.marks_live = false;
+            self.bytes_live = false;
         }
         if self.head.len() != n_cat {
             self.head.clear();
@@ -904,10 +855,17 @@ impl Adjacency {
     #[inline(never)]
     fn fill_narrow(&mut self, pairs: &[[u16; 2]], wanted: &[[u16; 2]], n_cat: usize) {
         self.start(n_cat);
-        self.marks_bits = n_cat > BYTE_MARKS_MAX_STARS;
-        if self.marks_bits {
-            let mut marks = self.narrow_bits.take().unwrap_or_else(BitMarks::new);
+        if n_cat > BYTE_MARKS_MAX_STARS {
+            let mut marks = self
+                .narrow_bits
+                .take()
+                .unwrap_or_else(|| Box::new(BitMarks([0; NARROW_STARS / 64])));
             self.fill_narrow_with(&mut *marks, pairs, wanted);
+            // Bit marks are not kept for the walk (see `bytes_live`).
+            for &[p, q] in wanted {
+                marks.clear(p);
+                marks.clear(q);
+            }
             self.narrow_bits = Some(marks);
         } else {
             let mut marks = self
@@ -916,8 +874,8 @@ impl Adjacency {
                 .unwrap_or_else(|| Box::new(ByteMarks([0; NARROW_STARS])));
             self.fill_narrow_with(&mut *marks, pairs, wanted);
             self.narrow_bytes = Some(marks);
+            self.bytes_live = true;
         }
-        self.marks_live = true;
     }
 
     /// `fill_narrow` with its marks.
@@ -1004,36 +962,29 @@ impl Adjacency {
         self.head[star as usize] != NONE
     }
 
-    /// The marks the last fill left set, if it was a narrow fill: bytes (2 at a wanted star
-    /// with a list, 1 at one without, 0 at any other star, which holds no list to ask about) or
-    /// bits (a list bit at each wanted star with a list).
+    /// The byte marks the last fill left set, if it was a byte-marked narrow fill that wanted
+    /// any star: 2 at a wanted star with a list, 1 at one without, 0 at any other star (which
+    /// holds no list to ask about).
     #[inline]
-    pub(super) fn live_marks(&self) -> Option<LiveMarks<'_>> {
-        if !self.marks_live {
-            None
-        } else if self.marks_bits {
-            self.narrow_bits.as_deref().map(LiveMarks::Bits)
+    pub(super) fn live_marks(&self) -> Option<&ByteMarks> {
+        if self.bytes_live {
+            self.narrow_bytes.as_deref()
         } else {
-            self.narrow_bytes.as_deref().map(LiveMarks::Bytes)
+            None
         }
     }
 
     /// Clear the marks the last fill left set, given the pairs it wanted.
     pub(super) fn clear_marks(&mut self, wanted: Pairs<'_>) {
-        let Pairs::Narrow(w) = wanted else {
-            return;
-        };
-        if !self.marks_live {
-            return;
-        }
-        if self.marks_bits {
-            if let Some(m) = self.narrow_bits.as_mut() {
-                clear_pairs(&mut **m, w);
+        if let (true, Some(m), Pairs::Narrow(w)) =
+            (self.bytes_live, self.narrow_bytes.as_mut(), wanted)
+        {
+            for &[p, q] in w {
+                m.clear(p);
+                m.clear(q);
             }
-        } else if let Some(m) = self.narrow_bytes.as_mut() {
-            clear_pairs(&mut **m, w);
+            self.bytes_live = false;
         }
-        self.marks_live = false;
     }
 
     #[inline]
@@ -1147,18 +1098,16 @@ mod tests {
             // A narrow fill's marks say the same of the wanted stars (what the walk asks).
             if trial % 2 == 1 && !wanted.is_empty() {
                 for &star in wanted.iter().flatten() {
-                    let listed = match adj.live_marks() {
-                        Some(LiveMarks::Bytes(m)) => {
-                            assert!(n_cat <= BYTE_MARKS_MAX_STARS, "trial {trial}: bytes");
-                            m.has_list(star as u16)
-                        }
-                        Some(LiveMarks::Bits(m)) => {
-                            assert!(n_cat > BYTE_MARKS_MAX_STARS, "trial {trial}: bits");
-                            m.has_list(star as u16)
-                        }
-                        None => panic!("trial {trial}: no marks left"),
-                    };
-                    assert_eq!(listed, adj.has_partners(star), "trial {trial}, star {star}");
+                    // Bit marks (the large catalogue) are cleared by the fill.
+                    if let Some(m) = adj.live_marks() {
+                        assert_eq!(
+                            m.has_list(star as u16),
+                            adj.has_partners(star),
+                            "trial {trial}, star {star}"
+                        );
+                    } else {
+                        assert!(n_cat > BYTE_MARKS_MAX_STARS, "trial {trial}: no marks left");
+                    }
                 }
                 // Cleared by the walk's pairs on some trials, by the next fill's reset on the
                 // others: either way the next fill starts clean (checked above).
