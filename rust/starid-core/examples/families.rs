@@ -17,11 +17,13 @@
 //! more under valgrind) R more times (for profilers).
 //!
 //! `STARID_ROUNDS=R` times the scenes as the peer benchmark does instead: every scene simulated
-//! first, then R passes over all of them in turn, each scene's fastest call; the median of those.
-//! A scene's call then follows the other scenes' (their index ranges, catalogue stars and code
-//! paths in the caches), not its own. `STARID_FLUSH_MB=M` also writes M MB between calls: a frame
-//! whose data and code the rest of the system has pushed out of the caches, as a tracker that
-//! identifies one frame a second among other work sees it.
+//! first, then R passes over all of them in turn, each scene's fastest call (a call then follows
+//! the other scenes', with their index ranges, catalogue stars and code paths in the caches), and
+//! for comparison R calls of each scene back to back; medians of all scenes, of those whose three
+//! brightest spots are stars (the first triangle the search tries) and of the others.
+//! `STARID_FLUSH_MB=M` also writes M MB before every call: a frame whose data and code the rest
+//! of the system has pushed out of the caches, as a tracker that identifies one frame a second
+//! among other work sees it.
 #![allow(clippy::print_stdout)]
 
 use std::sync::Arc;
@@ -57,33 +59,57 @@ fn scene(family: Family, catalog: &Catalog, seed: u64, realistic: bool) -> SimFr
     f
 }
 
-/// `STARID_ROUNDS`: the median over `frames` of each frame's fastest call in `rounds` passes,
-/// microseconds, with `flush_mb` MB written before every call.
-fn sequence_median_us(
+/// `STARID_ROUNDS`: each frame's fastest call, microseconds, in `rounds` passes over all
+/// `frames` in turn, with `flush_mb` MB written before every call (`back_to_back`: `rounds` calls
+/// of each frame in a row instead, so that every call but the first follows its own frame's).
+fn fastest_calls_us(
     (solver, camera, config): (&Solver, &Camera, &IdentifyConfig),
     frames: &[SimFrame],
-    rounds: usize,
-    flush_mb: usize,
-) -> f64 {
+    (rounds, flush_mb, back_to_back): (usize, usize, bool),
+) -> Vec<f64> {
     let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
     let mut best = vec![f64::INFINITY; frames.len()];
     let mut buffer = vec![0u8; flush_mb << 20];
-    for _ in 0..rounds {
+    let mut call = |f: &SimFrame, b: &mut f64| {
+        // One write per cache line.
+        for (i, x) in buffer.iter_mut().enumerate().step_by(64) {
+            *x = x.wrapping_add(i as u8);
+        }
+        let mags = (!order_only).then_some(f.magnitudes.as_slice());
+        let r = solver
+            .identify(&f.centroids, mags, camera, config)
+            .expect("identify");
+        *b = b.min(r.elapsed.as_secs_f64() * 1e6);
+    };
+    if back_to_back {
         for (f, b) in frames.iter().zip(&mut best) {
-            // One write per cache line.
-            for (i, x) in buffer.iter_mut().enumerate().step_by(64) {
-                *x = x.wrapping_add(i as u8);
-            }
-            let mags = (!order_only).then_some(f.magnitudes.as_slice());
-            let r = solver
-                .identify(&f.centroids, mags, camera, config)
-                .expect("identify");
-            *b = b.min(r.elapsed.as_secs_f64() * 1e6);
+            (0..rounds).for_each(|_| call(f, b));
+        }
+    } else {
+        for _ in 0..rounds {
+            frames.iter().zip(&mut best).for_each(|(f, b)| call(f, b));
         }
     }
     std::hint::black_box(&buffer);
-    best.sort_by(f64::total_cmp);
-    best[best.len() / 2]
+    best
+}
+
+/// The median of `values` where `keep` holds, and how many there were.
+fn median_where(values: &[f64], keep: impl Fn(usize) -> bool) -> (f64, usize) {
+    let mut v: Vec<f64> = (0..values.len())
+        .filter(|&i| keep(i))
+        .map(|i| values[i])
+        .collect();
+    v.sort_by(f64::total_cmp);
+    (v.get(v.len() / 2).copied().unwrap_or(f64::NAN), v.len())
+}
+
+/// Whether the three brightest spots of `f` are catalogue stars (the first triangle any
+/// search with magnitudes or the brightness order tries).
+fn brightest_three_real(f: &SimFrame) -> bool {
+    let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
+    idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+    idx.len() >= 3 && idx[..3].iter().all(|&i| f.catalog_index[i].is_some())
 }
 
 fn main() {
@@ -140,13 +166,25 @@ fn main() {
             let frames: Vec<SimFrame> = (0..scenes)
                 .map(|seed| scene(family, &catalog, seed, realistic))
                 .collect();
-            let median = sequence_median_us((&solver, &camera, &config), &frames, rounds, flush_mb);
+            let solving = (&solver, &camera, &config);
+            let sequence = fastest_calls_us(solving, &frames, (rounds, flush_mb, false));
+            let repeated = fastest_calls_us(solving, &frames, (rounds, flush_mb, true));
+            let real3: Vec<bool> = frames.iter().map(brightest_three_real).collect();
             println!(
-                "{} ({}): {scenes} scenes in sequence, {rounds} rounds, {flush_mb} MB written \
-                 between calls: median of each scene's fastest call {median:.2} µs",
+                "{} ({}): {scenes} scenes, each scene's fastest of {rounds} calls, {flush_mb} MB \
+                 written before every call; medians, µs:",
                 family.name(),
                 config.method.name(),
             );
+            for (name, times) in [("in sequence", &sequence), ("back to back", &repeated)] {
+                let (all, _) = median_where(times, |_| true);
+                let (yes, n_yes) = median_where(times, |i| real3[i]);
+                let (no, n_no) = median_where(times, |i| !real3[i]);
+                println!(
+                    "   {name}: all {all:.2}; the {n_yes} whose 3 brightest spots are stars \
+                     {yes:.2}; the {n_no} others {no:.2}"
+                );
+            }
             continue;
         }
         let (mut score, mut ok, mut ge4, mut ok_ge4, mut right, mut wrong, mut real) =
