@@ -31,6 +31,13 @@ use std::sync::Arc;
 use rand::{Rng, SeedableRng};
 use starid_core::{Camera, Catalog, Family, IdentifyConfig, Method, SimFrame, Solver};
 
+/// The spots of `f`, brightest first.
+fn brightest_first(f: &SimFrame) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
+    idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+    idx
+}
+
 /// Scene `seed` of `family`, its magnitudes as the environment asks (see the module's notes).
 fn scene(family: Family, catalog: &Catalog, seed: u64, realistic: bool) -> SimFrame {
     let mut f = family.simulate(catalog, seed).expect("scene");
@@ -50,8 +57,7 @@ fn scene(family: Family, catalog: &Catalog, seed: u64, realistic: bool) -> SimFr
     }
     if std::env::var("STARID_ORDER_ONLY").is_ok() {
         // Brightest first without magnitudes: what tetra3-style solvers take.
-        let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
-        idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+        let idx = brightest_first(&f);
         f.centroids = idx.iter().map(|&i| f.centroids[i]).collect();
         f.catalog_index = idx.iter().map(|&i| f.catalog_index[i]).collect();
         f.magnitudes = idx.iter().map(|&i| f.magnitudes[i]).collect();
@@ -107,8 +113,7 @@ fn median_where(values: &[f64], keep: impl Fn(usize) -> bool) -> (f64, usize) {
 /// Whether the three brightest spots of `f` are catalogue stars (the first triangle any
 /// search with magnitudes or the brightness order tries).
 fn brightest_three_real(f: &SimFrame) -> bool {
-    let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
-    idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+    let idx = brightest_first(f);
     idx.len() >= 3 && idx[..3].iter().all(|&i| f.catalog_index[i].is_some())
 }
 
@@ -254,8 +259,7 @@ fn main() {
                 ok_ge4 += usize::from(full);
                 if !r.is_identified() && std::env::var("STARID_FAILS").is_ok() {
                     // Real stars among the brightest 6, 12 and 24 spots (the search's passes).
-                    let mut idx: Vec<usize> = (0..f.centroids.len()).collect();
-                    idx.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+                    let idx = brightest_first(&f);
                     let top = |k: usize| {
                         idx.iter()
                             .take(k)
