@@ -23,7 +23,10 @@
 //! brightest spots are stars (the first triangle the search tries) and of the others.
 //! `STARID_FLUSH_MB=M` also writes M MB before every call: a frame whose data and code the rest
 //! of the system has pushed out of the caches, as a tracker that identifies one frame a second
-//! among other work sees it.
+//! among other work sees it. `STARID_SCENES` also lists every scene (its two times, hypotheses,
+//! spots, stars and whether each of its 8 brightest spots is a star `S` or false `f`) and fits
+//! the time in sequence of the scenes verified at their first hypothesis by a line in their
+//! number of spots, per group: the cost of a frame's search against that of its verification.
 #![allow(clippy::print_stdout)]
 
 use std::sync::Arc;
@@ -117,6 +120,60 @@ fn brightest_three_real(f: &SimFrame) -> bool {
     idx.len() >= 3 && idx[..3].iter().all(|&i| f.catalog_index[i].is_some())
 }
 
+/// `STARID_SCENES`: each scene's line, and per group (three brightest spots all stars, or not)
+/// the least-squares line `a + b n` of the time in sequence over the scenes verified at their
+/// first hypothesis, `n` their spots.
+fn list_scenes(
+    (solver, camera, config): (&Solver, &Camera, &IdentifyConfig),
+    frames: &[SimFrame],
+    sequence: &[f64],
+    repeated: &[f64],
+) {
+    let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
+    // Per group: Σ1, Σn, Σt, Σn², Σnt.
+    let mut sums = [[0.0f64; 5]; 2];
+    for (i, f) in frames.iter().enumerate() {
+        let mags = (!order_only).then_some(f.magnitudes.as_slice());
+        let r = solver
+            .identify(&f.centroids, mags, camera, config)
+            .expect("identify");
+        let pattern: String = brightest_first(f)
+            .iter()
+            .take(8)
+            .map(|&j| {
+                if f.catalog_index[j].is_some() {
+                    'S'
+                } else {
+                    'f'
+                }
+            })
+            .collect();
+        let n = f.centroids.len();
+        println!(
+            "   scene {i}: {:.2} µs in sequence, {:.2} back to back, {} hypotheses, {n} spots, \
+             {} stars, {pattern}, {}",
+            sequence[i],
+            repeated[i],
+            r.hypotheses,
+            f.real_stars(),
+            r.status.as_str(),
+        );
+        if r.hypotheses == 1 && r.is_identified() {
+            let (x, t) = (n as f64, sequence[i]);
+            let g = &mut sums[usize::from(brightest_three_real(f))];
+            for (a, v) in g.iter_mut().zip([1.0, x, t, x * x, x * t]) {
+                *a += v;
+            }
+        }
+    }
+    for (g, name) in sums.iter().zip(["others", "3 brightest spots stars"]).rev() {
+        let [k, sn, st, snn, snt] = *g;
+        let b = (k * snt - sn * st) / (k * snn - sn * sn);
+        let a = (st - b * sn) / k;
+        println!("   {name}, verified at the first hypothesis ({k} scenes): {a:.2} µs + {b:.3} µs a spot");
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let scenes: u64 = args.get(1).map_or(1000, |a| a.parse().expect("SCENES"));
@@ -189,6 +246,9 @@ fn main() {
                     "   {name}: all {all:.2}; the {n_yes} whose 3 brightest spots are stars \
                      {yes:.2}; the {n_no} others {no:.2}"
                 );
+            }
+            if std::env::var("STARID_SCENES").is_ok() {
+                list_scenes((&solver, &camera, &config), &frames, &sequence, &repeated);
             }
             continue;
         }
