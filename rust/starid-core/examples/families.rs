@@ -41,6 +41,14 @@ fn brightest_first(f: &SimFrame) -> Vec<usize> {
     idx
 }
 
+/// The magnitudes the solver is given for `f`: none with `STARID_ORDER_ONLY` (the spots then
+/// come brightest first).
+fn given_magnitudes(f: &SimFrame) -> Option<&[f64]> {
+    std::env::var("STARID_ORDER_ONLY")
+        .is_err()
+        .then_some(f.magnitudes.as_slice())
+}
+
 /// Scene `seed` of `family`, its magnitudes as the environment asks (see the module's notes).
 fn scene(family: Family, catalog: &Catalog, seed: u64, realistic: bool) -> SimFrame {
     let mut f = family.simulate(catalog, seed).expect("scene");
@@ -76,7 +84,6 @@ fn fastest_calls_us(
     frames: &[SimFrame],
     (rounds, flush_mb, back_to_back): (usize, usize, bool),
 ) -> Vec<f64> {
-    let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
     let mut best = vec![f64::INFINITY; frames.len()];
     let mut buffer = vec![0u8; flush_mb << 20];
     let mut call = |f: &SimFrame, b: &mut f64| {
@@ -84,9 +91,8 @@ fn fastest_calls_us(
         for (i, x) in buffer.iter_mut().enumerate().step_by(64) {
             *x = x.wrapping_add(i as u8);
         }
-        let mags = (!order_only).then_some(f.magnitudes.as_slice());
         let r = solver
-            .identify(&f.centroids, mags, camera, config)
+            .identify(&f.centroids, given_magnitudes(f), camera, config)
             .expect("identify");
         *b = b.min(r.elapsed.as_secs_f64() * 1e6);
     };
@@ -129,13 +135,11 @@ fn list_scenes(
     sequence: &[f64],
     repeated: &[f64],
 ) {
-    let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
     // Per group: Σ1, Σn, Σt, Σn², Σnt.
     let mut sums = [[0.0f64; 5]; 2];
     for (i, f) in frames.iter().enumerate() {
-        let mags = (!order_only).then_some(f.magnitudes.as_slice());
         let r = solver
-            .identify(&f.centroids, mags, camera, config)
+            .identify(&f.centroids, given_magnitudes(f), camera, config)
             .expect("identify");
         let pattern: String = brightest_first(f)
             .iter()
@@ -168,6 +172,9 @@ fn list_scenes(
     }
     for (g, name) in sums.iter().zip(["others", "3 brightest spots stars"]).rev() {
         let [k, sn, st, snn, snt] = *g;
+        if k < 2.0 {
+            continue;
+        }
         let b = (k * snt - sn * st) / (k * snn - sn * sn);
         let a = (st - b * sn) / k;
         println!("   {name}, verified at the first hypothesis ({k} scenes): {a:.2} µs + {b:.3} µs a spot");
@@ -261,9 +268,7 @@ fn main() {
         for seed in 0..scenes {
             let f = scene(family, &catalog, seed, realistic);
             let t = f.real_stars();
-            let mags = std::env::var("STARID_ORDER_ONLY")
-                .is_err()
-                .then_some(f.magnitudes.as_slice());
+            let mags = given_magnitudes(&f);
             let r = solver
                 .identify(&f.centroids, mags, &camera, &config)
                 .expect("identify");
