@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -45,3 +46,30 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     if _skipped and not os.environ.get("STARID_ALLOW_SKIPS") and exitstatus == 0:
         print(f"\n{len(_skipped)} test(s) skipped (set STARID_ALLOW_SKIPS=1 to allow): {', '.join(_skipped)}")
         session.exitstatus = 1
+
+
+@pytest.fixture
+def ctrl_c() -> Iterator[Callable[[float], None]]:
+    """``ctrl_c(after_s)``: Ctrl-C pressed ``after_s`` seconds from now, as in a terminal.
+
+    A process started with SIGINT ignored (a background job of a non-interactive shell, as CI
+    may run) has no KeyboardInterrupt handler, and ``_thread.interrupt_main`` is then dropped:
+    the handler a terminal's Python has is installed for the test and restored after it."""
+    import _thread
+    import signal
+    import threading
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    timers: list[threading.Timer] = []
+
+    def press(after_s: float) -> None:
+        t = threading.Timer(after_s, _thread.interrupt_main)
+        timers.append(t)
+        t.start()
+
+    try:
+        yield press
+    finally:
+        for t in timers:
+            t.cancel()
+        signal.signal(signal.SIGINT, previous)
