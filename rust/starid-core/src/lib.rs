@@ -73,7 +73,8 @@ pub use catalog::Catalog;
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Camera;
 pub use identify::{
-    AttitudeHint, FrameRef, HintFallback, Identification, IdentifyConfig, Method, Solver, Status,
+    AttitudeHint, Cancel, FrameRef, HintFallback, Identification, IdentifyConfig, Method, Solver,
+    Status,
 };
 pub use kvector::PairIndex;
 pub use simulate::{simulate, FalseStarMags, Family, SimConfig, SimFrame};

@@ -28,7 +28,7 @@ use nalgebra::{Vector2, Vector3};
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
 use crate::identify::{
-    binomial_tail, validate_centroids, Identification, IdentifyConfig, Solver, Status,
+    binomial_tail, stop_now, validate_centroids, Identification, IdentifyConfig, Solver, Status,
 };
 use crate::kvector::AngleWindow;
 use crate::pointing::{focal_for_angle, refine_pointing, PointingFit, RefineOptions};
@@ -209,7 +209,7 @@ impl Solver {
         'search: for &sigma in &ladder {
             search.sigma = sigma;
             for &tri in &triangles {
-                if deadline.is_some_and(|d| Instant::now() > d) {
+                if stop_now(deadline, config.cancel.as_ref()) {
                     status = Status::Timeout;
                     break 'search;
                 }
@@ -233,6 +233,16 @@ impl Solver {
                                 continue;
                             }
                             search.tried.push(f);
+                            if stop_now(deadline, config.cancel.as_ref()) {
+                                status = Status::Timeout;
+                                break 'search;
+                            }
+                            // Each focal length's search within what is left of the time.
+                            let per_call = IdentifyConfig {
+                                timeout: deadline
+                                    .map(|d| d.saturating_duration_since(Instant::now())),
+                                ..per_call.clone()
+                            };
                             let (done, hyps) = self
                                 .finish(centroids, magnitudes, width_px, height_px, f, &per_call)?;
                             hypotheses_total += hyps;

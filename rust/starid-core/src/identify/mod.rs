@@ -50,7 +50,9 @@ use crate::geometry::Camera;
 use crate::kvector::PairIndex;
 use crate::sky::DensityMap;
 
+mod batch;
 mod cache;
+mod cancel;
 mod hinted;
 mod magbins;
 mod pyramid;
@@ -59,7 +61,10 @@ mod seeds;
 mod verify;
 mod voting;
 
+pub use batch::map_frames;
 pub use cache::SolverCache;
+pub(crate) use cancel::stop_now;
+pub use cancel::Cancel;
 pub use hinted::{AttitudeHint, HintFallback, HINT_SEARCH_STARS, MAX_HINT_UNCERTAINTY_RAD};
 pub use magbins::MagPairIndex;
 pub use seeds::{SeedTables, RING_ORDER, RING_SLACK, SEED_CANDIDATES};
@@ -170,6 +175,10 @@ pub const CONFIRM_POOL: usize = 128;
 /// Largest number of centroids accepted in one frame.
 pub const MAX_CENTROIDS: usize = 100_000;
 
+/// Frames of more centroids than this check their time at every hypothesis (each verification
+/// reads every centroid), smaller ones at every 64th.
+pub(crate) const LARGE_FRAME: usize = 1000;
+
 /// Fewest centroids a frame must have: a triangle and a confirming fourth star.
 pub const MIN_CENTROIDS: usize = 4;
 
@@ -201,6 +210,9 @@ pub struct IdentifyConfig {
     /// Give up after this much time (status [`Status::Timeout`]); `None`: no time limit, and the
     /// result depends only on the input.
     pub timeout: Option<Duration>,
+    /// Raised by another thread (Ctrl-C in a caller), it ends the search as `timeout` does. Not
+    /// a setting: clones share it, and it does not change what a search finds before it ends.
+    pub cancel: Option<Cancel>,
     /// Which method generates hypotheses (all pass the same verification).
     pub method: Method,
     /// Instrument minus catalogue magnitude, when known (`Some(0.0)`: magnitudes in the
@@ -366,6 +378,7 @@ impl Default for IdentifyConfig {
             max_pairs_visited: 3_000_000,
             allow_mirrored: true,
             timeout: None,
+            cancel: None,
             method: Method::Auto,
             mag_offset: Some(0.0),
             mag_tolerance: 0.5,
@@ -599,6 +612,14 @@ impl Identification {
             *x = (*x - median).abs();
         }
         Some((median, 1.4826 * verify::median_in_place(&mut d)))
+    }
+
+    /// The result of a frame of a batch that could not be read or was refused: status
+    /// [`Status::InvalidInput`] for `n` centroids, and why.
+    pub fn invalid_input(n: usize, message: impl Into<String>) -> Self {
+        let mut id = Self::unidentified(Status::InvalidInput, n, 0, Duration::ZERO);
+        id.message = Some(message.into());
+        id
     }
 
     /// The outcome of a search that found nothing for `n` centroids.
@@ -1609,16 +1630,8 @@ impl Solver {
                 // Nothing is looked at; the chunk's end reports the cancellation.
                 return Identification::unidentified(Status::NoMatch, 0, 0, Duration::ZERO);
             }
-            self.identify(f.0, f.1, camera, config).unwrap_or_else(|e| {
-                let mut id = Identification::unidentified(
-                    Status::InvalidInput,
-                    f.0.len(),
-                    0,
-                    Duration::ZERO,
-                );
-                id.message = Some(e.to_string());
-                id
-            })
+            self.identify(f.0, f.1, camera, config)
+                .unwrap_or_else(|e| Identification::invalid_input(f.0.len(), e.to_string()))
         };
         // The frames `which` picks (all of them: `None`), identified with `config`.
         let run =
@@ -2130,6 +2143,11 @@ impl<'a> Search<'a> {
             hint: None,
             built: 3,
         }
+    }
+
+    /// Whether the search's time is up or its caller cancelled it.
+    fn out_of_time(&self) -> bool {
+        stop_now(self.deadline, self.config.cancel.as_ref())
     }
 }
 

@@ -2,13 +2,12 @@
 //! three quickly, catalogue triangles through the k-vector, a fourth star to confirm.
 
 use std::f64::consts::{PI, SQRT_2};
-use std::time::Instant;
 
 use super::magbins::MagPairIndex;
 use super::verify::binomial_tail;
 use super::{
-    Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, CONFIRM_POOL, MATCH_RADIUS_SIGMAS,
-    STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
+    Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, CONFIRM_POOL, LARGE_FRAME,
+    MATCH_RADIUS_SIGMAS, STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,
 };
 use crate::attitude::{triad, wahba_steps};
 use crate::kvector::{AngleWindow, Pairs};
@@ -200,7 +199,7 @@ impl Search<'_> {
     pub(super) fn spent(&self) -> Option<Status> {
         if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
             Some(Status::SearchLimit)
-        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+        } else if self.out_of_time() {
             Some(Status::Timeout)
         } else {
             None
@@ -253,7 +252,8 @@ impl Search<'_> {
                 // The pass's own budget: the next triangle ends it.
                 break;
             }
-            if self.hypotheses % 64 == 0 && self.deadline.is_some_and(|d| Instant::now() >= d) {
+            if (self.hypotheses % 64 == 0 || self.obs[0].len() > LARGE_FRAME) && self.out_of_time()
+            {
                 result = Err(SearchLimit(Status::Timeout));
                 break;
             }

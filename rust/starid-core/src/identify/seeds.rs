@@ -432,7 +432,7 @@ impl Search<'_> {
                 if self.pairs_visited - self.gated_work >= self.config.max_pairs_visited {
                     return Err(SearchLimit(Status::SearchLimit));
                 }
-                if self.deadline.is_some_and(|d| Instant::now() >= d) {
+                if self.out_of_time() {
                     return Err(SearchLimit(Status::Timeout));
                 }
                 if let Some(v) = self.verify(r, mirrored, r_confirm, sigma_rad) {
