@@ -155,3 +155,46 @@ def test_ctrl_c_stops_a_long_batch_promptly(ctrl_c: Callable[[float], None]) -> 
         starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), brightness_order=False)
     # Interrupted within a frame's time (each ends within its work budget), not seconds later.
     assert time.perf_counter() - t0 < 0.3 + 0.5
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        pytest.param(dict(fov_deg=12.0, attitude_hint=(83.0, -5.0, 0.0)), id="hinted"),
+        pytest.param(dict(fov_range_deg=(8.0, 16.0)), id="unknown-field"),
+    ],
+)
+def test_ctrl_c_stops_every_kind_of_batch_promptly(ctrl_c: Callable[[float], None], kw: dict[str, object]) -> None:
+    hopeless = np.random.default_rng(4).uniform(0, 512, (60, 2))
+    starid.identify_many([hopeless], image_size=(512, 512), **kw)  # the index is built before the clock starts
+    ctrl_c(0.3)
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        starid.identify_many([hopeless] * 2_000, image_size=(512, 512), **kw)
+    assert time.perf_counter() - t0 < 0.3 + 0.5
+
+
+def test_ctrl_c_stops_one_long_unknown_field_call(ctrl_c: Callable[[float], None]) -> None:
+    spots = np.random.default_rng(5).uniform(0, 512, (100_000, 2))
+    starid.identify(spots[:100], image_size=(512, 512), timeout_s=0.1)
+    ctrl_c(0.3)
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        starid.identify(spots, image_size=(512, 512))
+    assert time.perf_counter() - t0 < 0.3 + 0.5
+
+
+def test_time_limit_binds_one_long_unknown_field_call() -> None:
+    spots = np.random.default_rng(5).uniform(0, 512, (100_000, 2))
+    starid.identify(spots[:100], image_size=(512, 512), timeout_s=0.1)
+    t0 = time.perf_counter()
+    res = starid.identify(spots, image_size=(512, 512), timeout_s=1.0)
+    # Checked between focal lengths, triangles and (in frames this large) every hypothesis;
+    # 10 s before. The precise bound is a benchmark's (benches/bench_interrupt.py).
+    assert res.status == "timeout" and time.perf_counter() - t0 < 2.0
+
+
+def test_a_numpy_scalar_hint_is_one_hint_for_the_batch() -> None:
+    frames = [starid.simulate(seed=s, attitude_deg=(83.0, -5.0, 0.0), noise_px=0.1).xy for s in range(3)]
+    res = starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), attitude_hint=(np.int64(83), -5, 0))
+    assert [r.ok for r in res] == [True, True, True]

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 import os
 import secrets
 from dataclasses import dataclass, field
-from typing import Any, Optional, Sequence, Sized, Union, cast
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable, Mapping, Optional, Sequence, Sized, TypeVar, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -15,6 +17,8 @@ import numpy.typing as npt
 from . import _starid
 from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+
+T = TypeVar("T")
 
 __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "identify_many", "simulate"]
 
@@ -101,13 +105,32 @@ def _image_size(image_size: Any) -> tuple[float, float]:
     return w, h
 
 
+def _number(name: str, value: Any) -> float:
+    """``value`` as a float: a real number (a numpy scalar included), never a bool or a string
+    (``float(True)`` is 1, ``float("12")`` 12: neither is what a caller meant)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(value, (numbers.Real, np.ndarray)):
+        raise InvalidInputError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+    try:
+        return float(value)
+    except (TypeError, ValueError) as e:
+        raise InvalidInputError(f"{name} must be a number, got {value!r}") from e
+
+
+def _flag(name: str, value: Any) -> bool:
+    """``value`` as a bool: True or False (numpy's included), never a string such as ``"no"``
+    or a number."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise InvalidInputError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
+
+
 def _check_image_size(image_size: Any) -> tuple[float, float]:
     if image_size is None:
         raise InvalidInputError("image_size=(width_px, height_px) is required")
     try:
-        w, h = (float(v) for v in image_size)
+        w, h = (_number("image_size", v) for v in image_size)
     except (TypeError, ValueError) as e:
-        raise InvalidInputError(f"image_size must be a pair (width_px, height_px), got {image_size!r}") from e
+        raise InvalidInputError(f"image_size must be a pair (width_px, height_px), got {image_size!r}") from None
     if not (math.isfinite(w) and math.isfinite(h) and w >= 1 and h >= 1):
         raise InvalidInputError(f"image_size must be positive and finite, got {image_size!r}")
     return w, h
@@ -119,9 +142,9 @@ DEFAULT_FOV_RANGE_DEG = (8.0, 25.0)
 
 def _fov_range(fov_range_deg: Any) -> tuple[float, float]:
     try:
-        lo, hi = (float(v) for v in fov_range_deg)
-    except (TypeError, ValueError) as e:
-        raise InvalidInputError(f"fov_range_deg must be a pair (lo, hi) in degrees, got {fov_range_deg!r}") from e
+        lo, hi = (_number("fov_range_deg", v) for v in fov_range_deg)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"fov_range_deg must be a pair (lo, hi) in degrees, got {fov_range_deg!r}") from None
     if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi < 179.0):
         raise InvalidInputError(f"fov_range_deg must satisfy 0 < lo <= hi < 179 degrees, got {fov_range_deg!r}")
     return lo, hi
@@ -130,10 +153,7 @@ def _fov_range(fov_range_deg: Any) -> tuple[float, float]:
 def _fov(fov_deg: Any) -> float:
     if fov_deg is None:
         raise InvalidInputError("fov_deg (the full field of view across the image width, degrees) is required")
-    try:
-        fov = float(fov_deg)
-    except (TypeError, ValueError) as e:
-        raise InvalidInputError(f"fov_deg must be a number, got {fov_deg!r}") from e
+    fov = _number("fov_deg", fov_deg)
     if not (math.isfinite(fov) and 0.0 < fov < 179.0):
         raise InvalidInputError(f"fov_deg must be in (0, 179) degrees, got {fov_deg!r}")
     return fov
@@ -244,6 +264,8 @@ def _camera(camera: Any, fov_deg: Any, image_size: Any) -> Any:
         return camera
     if fov_deg is None:
         return None
+    if isinstance(fov_deg, (bool, np.bool_)):  # True == 1 would find the camera of 1° below
+        _fov(fov_deg)
     key = (fov_deg, image_size)
     try:
         return _CAMERAS[key]
@@ -464,16 +486,13 @@ def identify(
     if attitude_hint is not None:
         q, mirrored = _hint(attitude_hint)
         return _starid.identify_hinted(
-            cat._native, a, m, cam, cfg, q, _positive("hint_uncertainty_deg", hint_uncertainty_deg), mirrored, bool(hint_fallback)
+            cat._native, a, m, cam, cfg, q, _positive("hint_uncertainty_deg", hint_uncertainty_deg), mirrored, _flag("hint_fallback", hint_fallback)
         )
     return _starid.identify(cat._native, a, m, cam, cfg)
 
 
 def _positive(name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as e:
-        raise InvalidInputError(f"{name} must be a number, got {value!r}") from e
+    v = _number(name, value)
     if not (math.isfinite(v) and v > 0):
         raise InvalidInputError(f"{name} must be positive and finite, got {value!r}")
     return v
@@ -564,6 +583,10 @@ def identify_many(
     """
     if mag_offset is not _UNSET:
         settings["mag_offset"] = mag_offset
+    if isinstance(frames, (str, bytes, os.PathLike, Mapping)) or not isinstance(frames, (Sequence, np.ndarray)):
+        raise InvalidInputError(
+            f"frames must be a sequence of frames (a list of (N, 2) arrays or of images), got {type(frames).__name__}"
+        )
     if len(frames) > 0 and _is_image(frames[0]):
         if magnitudes is not None:
             raise InvalidInputError("images' magnitudes come from their spots: do not pass magnitudes=")
@@ -613,11 +636,11 @@ def identify_many(
     if cam is None:
         if attitude_hint is not None:
             raise InvalidInputError("an attitude hint needs a known field of view (fov_deg or camera)")
-        results = _unknown_fov_batch(cat, xys, mags_or_none, (w, h), (lo, hi), cfg, threads, bad)
+        results = _unknown_fov_batch(cat, xys, mags_or_none, (w, h), (lo, hi), cfg, threads)
     elif attitude_hint is not None:
         results = _hinted_batch(
             cat, cam, xys, mags_or_none, attitude_hint, _positive("hint_uncertainty_deg", hint_uncertainty_deg),
-            bool(hint_fallback), cfg, threads, bad,
+            _flag("hint_fallback", hint_fallback), cfg, threads,
         )
     else:
         # Every frame is now a float64 array: the core takes the lists as they are.
@@ -634,8 +657,6 @@ def _image_batch(
     images: Sequence[Any], catalog: CatalogLike, fov_deg: Optional[float], threads: Optional[int], kwargs: dict[str, Any]
 ) -> list[Identification]:
     """Images read, extracted and identified on a thread pool, results in input order."""
-    from concurrent.futures import ThreadPoolExecutor
-
     from .images import identify_image
 
     if threads is not None and int(threads) < 1:
@@ -658,8 +679,7 @@ def _image_batch(
     workers = (os.cpu_count() or 1) if threads is None else int(threads)
     known_camera = kwargs.get("camera") is not None or fov_deg is not None
     if not known_camera or kwargs.get("attitude_hint") is not None or kwargs.get("fov_range_deg") is not None:
-        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-            return list(pool.map(one, range(len(images))))
+        return _map_threads(one, len(images), workers)
     # A known camera: the spots of every image first, then the centroid lists identified as one
     # batch per image size (identify_many), so that the images teach the batch their zero point
     # (``learn_zero_point``).
@@ -680,8 +700,7 @@ def _image_batch(
         except (ValueError, OSError, ImportError) as e:
             return named(i, e)
 
-    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        found = list(pool.map(spots, range(len(images))))
+    found = _map_threads(spots, len(images), workers)
     results: list[Optional[Identification]] = [None] * len(images)
     by_size: dict[tuple[float, float], list[int]] = {}
     for i, c in enumerate(found):
@@ -703,6 +722,16 @@ def _image_batch(
     return cast(list[Identification], results)
 
 
+def _map_threads(fn: Callable[[int], T], n: int, workers: int) -> list[T]:
+    """``[fn(0), …, fn(n − 1)]`` on a pool of threads. Ctrl-C cancels the calls not yet begun
+    and raises at once, without waiting for the rest of the batch."""
+    pool = ThreadPoolExecutor(max_workers=max(1, workers))
+    try:
+        return list(pool.map(fn, range(n)))
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
 def _hinted_batch(
     cat: Catalog,
     cam: Any,
@@ -713,31 +742,15 @@ def _hinted_batch(
     fallback: bool,
     cfg: Any,
     threads: Optional[int],
-    bad: dict[int, str],
 ) -> list[Identification]:
-    """Frames with attitude hints, on a thread pool (each call releases the GIL)."""
-    from concurrent.futures import ThreadPoolExecutor
-
+    """Frames with attitude hints, identified by the core in parallel (Ctrl-C stops them)."""
     per_frame = isinstance(attitude_hint, (list, tuple)) and len(attitude_hint) == len(xys) and not (
-        len(xys) in (3, 4) and all(isinstance(v, (int, float)) for v in attitude_hint)
+        len(xys) in (3, 4) and all(isinstance(v, numbers.Real) for v in attitude_hint)
     )
     hints = [
         None if h is None else _hint(h) for h in (attitude_hint if per_frame else [attitude_hint] * len(xys))
     ]
-
-    def one(i: int) -> Identification:
-        if i in bad:
-            return _invalid(bad[i], 0)
-        try:
-            h = hints[i]
-            if h is None:
-                return _starid.identify(cat._native, xys[i], mags[i], cam, cfg)
-            return _starid.identify_hinted(cat._native, xys[i], mags[i], cam, cfg, h[0], uncertainty_deg, h[1], fallback)
-        except ValueError as e:
-            return _invalid(f"frame {i}: {e}", len(xys[i]))
-
-    with ThreadPoolExecutor(max_workers=threads or os.cpu_count() or 1) as pool:
-        return list(pool.map(one, range(len(xys))))
+    return _starid.identify_hinted_many(cat._native, xys, mags, cam, cfg, hints, uncertainty_deg, fallback, threads)
 
 
 def _unknown_fov_batch(
@@ -748,23 +761,10 @@ def _unknown_fov_batch(
     fov_range: tuple[float, float],
     cfg: Any,
     threads: Optional[int],
-    bad: dict[int, str],
 ) -> list[Identification]:
-    """Frames of an unknown field of view, on a thread pool (each call releases the GIL)."""
-    from concurrent.futures import ThreadPoolExecutor
-
+    """Frames of an unknown field of view, identified by the core in parallel (Ctrl-C stops them)."""
     (w, h), (lo, hi) = size, fov_range
-
-    def one(i: int) -> Identification:
-        if i in bad:
-            return _invalid(bad[i], 0)
-        try:
-            return _starid.identify_unknown_fov(cat._native, xys[i], mags[i], w, h, lo, hi, cfg)
-        except ValueError as e:
-            return _invalid(f"frame {i}: {e}", len(xys[i]))
-
-    with ThreadPoolExecutor(max_workers=threads or os.cpu_count() or 1) as pool:
-        return list(pool.map(one, range(len(xys))))
+    return _starid.identify_unknown_fov_many(cat._native, xys, mags, w, h, lo, hi, cfg, threads)
 
 
 def _invalid(message: str, n: int) -> Identification:

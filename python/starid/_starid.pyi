@@ -31,8 +31,10 @@ __all__ = [
     "identify",
     "identify_frame",
     "identify_hinted",
+    "identify_hinted_many",
     "identify_many",
     "identify_unknown_fov",
+    "identify_unknown_fov_many",
     "methods",
     "quaternion_from_radec_roll",
     "result_columns",
@@ -353,6 +355,28 @@ def identify_unknown_fov(
     fov_hi_deg: float,
     config: IdentifyConfig,
 ) -> Identification: ...
+def identify_unknown_fov_many(
+    catalog: Catalog,
+    xys: list[npt.NDArray[np.float64]],
+    magnitudes: list[Optional[npt.NDArray[np.float64]]],
+    width_px: float,
+    height_px: float,
+    fov_lo_deg: float,
+    fov_hi_deg: float,
+    config: IdentifyConfig,
+    threads: Optional[int] = None,
+) -> list[Identification]: ...
+def identify_hinted_many(
+    catalog: Catalog,
+    xys: list[npt.NDArray[np.float64]],
+    magnitudes: list[Optional[npt.NDArray[np.float64]]],
+    camera: Camera,
+    config: IdentifyConfig,
+    hints: list[Optional[tuple[list[float], Optional[bool]]]],
+    uncertainty_deg: float,
+    fallback: bool,
+    threads: Optional[int] = None,
+) -> list[Identification]: ...
 
 def identify_frame(
     catalog: Catalog,

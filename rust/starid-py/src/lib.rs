@@ -6,6 +6,7 @@
 //! Functions mirror Python signatures with many keyword arguments, hence the allowed lint.
 #![allow(clippy::too_many_arguments)]
 
+mod batch;
 mod camera;
 mod catalog;
 mod convert;
@@ -16,7 +17,6 @@ mod outcome;
 mod pointing;
 mod tracking;
 
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use numpy::{
@@ -134,6 +134,7 @@ impl PyIdentifyConfig {
             max_pairs_visited: count("max_pairs_visited", max_pairs_visited, d.max_pairs_visited)?,
             allow_mirrored: allow_mirrored.unwrap_or(d.allow_mirrored),
             timeout,
+            cancel: None,
             method: match method {
                 None => d.method,
                 Some(m) => starid_core::Method::from_name(m).map_err(PyStaridError)?,
@@ -458,49 +459,11 @@ fn identify_many<'py>(
         .zip(&mags)
         .map(|(f, m)| (f.as_slice(), m.as_deref()))
         .collect();
-    // The batch runs on a thread of its own while this one, every 20 ms, lets Python handle
-    // signals: Ctrl-C cancels the frames not yet begun and raises KeyboardInterrupt at once.
-    // The wait between checks ends as soon as the batch does (a condition variable, not a sleep).
-    let cancel = AtomicBool::new(false);
-    let done = (std::sync::Mutex::new(false), std::sync::Condvar::new());
-    let results = std::thread::scope(|scope| -> PyResult<Vec<starid_core::Identification>> {
-        let (refs, cam, cfg, cancel, done) = (&refs, &cam, &cfg, &cancel, &done);
-        let solver = &solver;
-        let batch = scope.spawn(move || {
-            let out = solver.identify_batch_until(refs, cam, cfg, threads, cancel);
-            *done
-                .0
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner) = true;
-            done.1.notify_all();
-            out
-        });
-        while !batch.is_finished() {
-            if let Err(interrupt) = py.check_signals() {
-                cancel.store(true, Ordering::Relaxed);
-                let _ = py.detach(move || batch.join());
-                return Err(interrupt);
-            }
-            let finished = py.detach(|| {
-                let guard = done
-                    .0
-                    .lock()
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                let (guard, _) = done
-                    .1
-                    .wait_timeout_while(guard, std::time::Duration::from_millis(20), |d| !*d)
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                *guard
-            });
-            if finished {
-                break;
-            }
-        }
-        batch
-            .join()
-            .map_err(|_| InvalidInputError::new_err("identification thread panicked"))?
-            .map_err(|e| PyStaridError(e).into())
-    })?;
+    // Ctrl-C cancels the frames not yet begun and raises KeyboardInterrupt at once.
+    let results = batch::watched(py, |cancel| {
+        solver.identify_batch_until(&refs, &cam, &cfg, threads, cancel.flag())
+    })?
+    .map_err(PyStaridError)?;
     let cat = catalog.get();
     let out = results.iter().enumerate().map(|(i, id)| {
         let mut r = PyIdentification::new(cat, id, &cam, f64::NAN);
@@ -640,6 +603,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pointing::choose_stars, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::monte_carlo_distances, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::identify_unknown_fov, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::identify_unknown_fov_many, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::identify_hinted_many, m)?)?;
     m.add("StaridError", m.py().get_type::<StaridError>())?;
     m.add("CatalogError", m.py().get_type::<CatalogError>())?;
     m.add("InvalidInputError", m.py().get_type::<InvalidInputError>())?;

@@ -4,11 +4,11 @@ use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use crate::errors::InvalidInputError;
+use crate::errors::{InvalidInputError, PyStaridError};
 use pyo3::types::{PyDict, PyList};
 use starid_core::geometry::{radec_to_unit, unit_to_radec};
 use starid_core::pointing::{self, PointingFit, RefineOptions};
-use starid_core::{geometry, Camera};
+use starid_core::{geometry, Camera, IdentifyConfig};
 
 use crate::catalog::PyCatalog;
 use crate::outcome::PyIdentification;
@@ -229,7 +229,7 @@ pub fn monte_carlo_distances<'py>(
     Ok(d)
 }
 
-/// Identify a frame whose field of view lies in [fov_lo_deg, fov_hi_deg].
+/// Identify a frame whose field of view lies in [fov_lo_deg, fov_hi_deg]. Ctrl-C stops it.
 #[pyfunction]
 #[pyo3(signature = (catalog, xy, magnitudes, width_px, height_px, fov_lo_deg, fov_hi_deg, config))]
 pub fn identify_unknown_fov<'py>(
@@ -243,6 +243,42 @@ pub fn identify_unknown_fov<'py>(
     fov_hi_deg: f64,
     config: &Bound<'py, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
+    let (solver, range, widest) =
+        unknown_fov_setup(py, catalog, width_px, height_px, fov_lo_deg, fov_hi_deg)?;
+    let centroids = convert::centroids("xy", &xy)?;
+    let mags = magnitudes
+        .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
+        .transpose()?;
+    let cfg = config.get().inner.clone();
+    let r = crate::batch::watched(py, move |cancel| {
+        let cfg = IdentifyConfig {
+            cancel: Some(cancel.clone()),
+            ..cfg
+        };
+        solver.identify_unknown_focal(
+            &centroids,
+            mags.as_deref(),
+            width_px,
+            height_px,
+            range,
+            &cfg,
+        )
+    })?
+    .map_err(PyStaridError)?;
+    let (id, cam, sigma) = unknown_fov_result(r, &widest);
+    Ok(PyIdentification::new(catalog.get(), &id, &cam, sigma))
+}
+
+/// What a frame of an unknown field of view in `[fov_lo_deg, fov_hi_deg]` needs: the solver for
+/// the widest field, the focal-length range (widest first) and the widest camera.
+pub(crate) fn unknown_fov_setup(
+    py: Python<'_>,
+    catalog: &Bound<'_, PyCatalog>,
+    width_px: f64,
+    height_px: f64,
+    fov_lo_deg: f64,
+    fov_hi_deg: f64,
+) -> PyResult<(std::sync::Arc<starid_core::Solver>, (f64, f64), Camera)> {
     if !(fov_lo_deg.is_finite()
         && fov_hi_deg.is_finite()
         && 0.0 < fov_lo_deg
@@ -255,32 +291,30 @@ pub fn identify_unknown_fov<'py>(
     }
     let widest = crate::camera(fov_hi_deg, width_px, height_px)?;
     let narrowest = crate::camera(fov_lo_deg, width_px, height_px)?;
-    let centroids = convert::centroids("xy", &xy)?;
-    let mags = magnitudes
-        .map(|m| convert::vector("magnitudes", &m, Some(centroids.len())))
-        .transpose()?;
     let solver = catalog.get().solver(py, widest.diagonal_fov_rad())?;
-    let cfg = config.get().inner.clone();
-    let range = (widest.focal_length_px, narrowest.focal_length_px);
-    let r = run_core(py, move || {
-        solver.identify_unknown_focal(
-            &centroids,
-            mags.as_deref(),
-            width_px,
-            height_px,
-            range,
-            &cfg,
-        )
-    })?;
-    let nan_camera = Camera {
-        focal_length_px: f64::NAN,
-        ..widest
-    };
-    let cam = r.camera.unwrap_or(nan_camera);
-    Ok(PyIdentification::new(
-        catalog.get(),
-        &r.identification,
-        &cam,
-        r.fit.as_ref().map_or(f64::NAN, PointingFit::focal_sigma_px),
+    Ok((
+        solver,
+        (widest.focal_length_px, narrowest.focal_length_px),
+        widest,
     ))
+}
+
+/// The sensor of `widest` with its focal length unknown (NaN): the camera of a frame nothing
+/// identified.
+pub(crate) fn focal_unknown(widest: &Camera) -> Camera {
+    Camera {
+        focal_length_px: f64::NAN,
+        ..*widest
+    }
+}
+
+/// A result of an unknown field: the identification, the camera found (or [`focal_unknown`])
+/// and the focal length's 1σ.
+pub(crate) fn unknown_fov_result(
+    r: starid_core::FocalIdentification,
+    widest: &Camera,
+) -> (starid_core::Identification, Camera, f64) {
+    let sigma = r.fit.as_ref().map_or(f64::NAN, PointingFit::focal_sigma_px);
+    let cam = r.camera.unwrap_or_else(|| focal_unknown(widest));
+    (r.identification, cam, sigma)
 }

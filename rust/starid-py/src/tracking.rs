@@ -23,7 +23,11 @@ fn rotation(q: [f64; 4]) -> PyResult<Rotation3<f64>> {
 
 /// The core's hint from a quaternion `[w, x, y, z]`, an uncertainty in degrees and the
 /// handedness if known.
-fn hint(q: [f64; 4], uncertainty_deg: f64, mirrored: Option<bool>) -> PyResult<AttitudeHint> {
+pub(crate) fn hint(
+    q: [f64; 4],
+    uncertainty_deg: f64,
+    mirrored: Option<bool>,
+) -> PyResult<AttitudeHint> {
     Ok(AttitudeHint {
         r_icrs_to_cam: rotation(q)?,
         uncertainty_rad: uncertainty_deg.to_radians(),

@@ -1,0 +1,232 @@
+//! Long calls that Ctrl-C stops: the work on a thread of its own while the calling thread lets
+//! Python handle signals, and the batches of hinted and unknown-field frames.
+
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+use starid_core::identify::map_frames;
+use starid_core::{Camera, Cancel, HintFallback, Identification};
+
+use crate::camera::PyCamera;
+use crate::catalog::PyCatalog;
+use crate::convert::{self, Frame};
+use crate::errors::PyStaridError;
+use crate::outcome::PyIdentification;
+use crate::PyIdentifyConfig;
+
+/// How often the calling thread looks for Ctrl-C while the work runs.
+const SIGNAL_CHECK: std::time::Duration = std::time::Duration::from_millis(20);
+
+/// `work(cancel)` with the GIL released, on a thread of its own, while this one lets Python
+/// handle signals every 20 ms: Ctrl-C raises `cancel`, waits for the work to end (it polls the
+/// flag) and raises KeyboardInterrupt. The wait ends as soon as the work does (a condition
+/// variable, not a sleep).
+pub fn watched<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce(&Cancel) -> T + Send,
+{
+    let cancel = Cancel::new();
+    let done = (std::sync::Mutex::new(false), std::sync::Condvar::new());
+    std::thread::scope(|scope| {
+        let (cancel, done) = (&cancel, &done);
+        let job = scope.spawn(move || {
+            let out = work(cancel);
+            *done
+                .0
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = true;
+            done.1.notify_all();
+            out
+        });
+        loop {
+            if let Err(interrupt) = py.check_signals() {
+                cancel.cancel();
+                let _ = py.detach(move || job.join());
+                return Err(interrupt);
+            }
+            let finished = py.detach(|| {
+                let guard = done
+                    .0
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                let (guard, _) = done
+                    .1
+                    .wait_timeout_while(guard, SIGNAL_CHECK, |d| !*d)
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                *guard
+            });
+            if finished {
+                break;
+            }
+        }
+        job.join().map_err(|_| {
+            crate::errors::InvalidInputError::new_err("identification thread panicked")
+        })
+    })
+}
+
+/// The frames of a batch as the core takes them; a frame that cannot be read keeps its error,
+/// which becomes its `invalid_input` result.
+fn read_frames(
+    xys: &Bound<'_, PyList>,
+    magnitudes: &Bound<'_, PyList>,
+) -> PyResult<Vec<std::result::Result<Frame, String>>> {
+    if magnitudes.len() != xys.len() {
+        return Err(crate::errors::InvalidInputError::new_err(format!(
+            "magnitudes has {} entries for {} frames",
+            magnitudes.len(),
+            xys.len()
+        )));
+    }
+    xys.iter()
+        .zip(magnitudes.iter())
+        .map(|(xy, m)| {
+            let xy: PyReadonlyArray2<'_, f64> = xy.extract()?;
+            let m: Option<PyReadonlyArray1<'_, f64>> = m.extract()?;
+            Ok(convert::frame(&xy, m.as_ref()).map_err(|e| e.to_string()))
+        })
+        .collect()
+}
+
+/// A frame's result, or its `invalid_input` result naming it.
+fn per_frame(i: usize, n: usize, r: starid_core::Result<Identification>) -> Identification {
+    r.unwrap_or_else(|e| invalid(i, n, &e.to_string()))
+}
+
+fn invalid(i: usize, n: usize, message: &str) -> Identification {
+    Identification::invalid_input(n, format!("frame {i}: {message}"))
+}
+
+/// Python results of core results, each with the camera it was identified with.
+fn results<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    out: Vec<(Identification, Camera, f64)>,
+) -> PyResult<Bound<'py, PyList>> {
+    let cat = catalog.get();
+    PyList::new(
+        py,
+        out.iter()
+            .map(|(id, cam, sigma)| PyIdentification::new(cat, id, cam, *sigma)),
+    )
+}
+
+/// Frames of one camera, each with an attitude hint (`None`: lost in space), in parallel; a
+/// frame or hint that cannot be read is an `invalid_input` result naming the frame.
+#[pyfunction]
+#[pyo3(signature = (catalog, xys, magnitudes, camera, config, hints, uncertainty_deg, fallback, threads=None))]
+pub fn identify_hinted_many<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    xys: &Bound<'py, PyList>,
+    magnitudes: &Bound<'py, PyList>,
+    camera: &Bound<'py, PyCamera>,
+    config: &Bound<'py, PyIdentifyConfig>,
+    hints: Vec<Option<([f64; 4], Option<bool>)>>,
+    uncertainty_deg: f64,
+    fallback: bool,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyList>> {
+    let frames = read_frames(xys, magnitudes)?;
+    if hints.len() != frames.len() {
+        return Err(crate::errors::InvalidInputError::new_err(format!(
+            "{} hints for {} frames",
+            hints.len(),
+            frames.len()
+        )));
+    }
+    let (cam, solver, cfg) = crate::frame_setup(py, catalog, camera, config)?;
+    let fallback = if fallback {
+        HintFallback::LostInSpace
+    } else {
+        HintFallback::None
+    };
+    let out = watched(py, |cancel| {
+        let cfg = starid_core::IdentifyConfig {
+            cancel: Some(cancel.clone()),
+            ..cfg
+        };
+        map_frames(frames.len(), threads, cancel.flag(), |i| {
+            let id = match &frames[i] {
+                Err(e) => invalid(i, 0, e),
+                Ok((xy, m)) => {
+                    let r = match &hints[i] {
+                        None => solver.identify(xy, m.as_deref(), &cam, &cfg),
+                        Some((q, mirrored)) => {
+                            crate::tracking::hint(*q, uncertainty_deg, *mirrored)
+                                .map_err(|e| starid_core::Error::invalid_input(e.to_string()))
+                                .and_then(|h| {
+                                    solver.identify_hinted(
+                                        xy,
+                                        m.as_deref(),
+                                        &cam,
+                                        &cfg,
+                                        &h,
+                                        fallback,
+                                    )
+                                })
+                        }
+                    };
+                    per_frame(i, xy.len(), r)
+                }
+            };
+            (id, cam, f64::NAN)
+        })
+    })?
+    .map_err(PyStaridError)?;
+    results(py, catalog, out)
+}
+
+/// Frames of one sensor whose field of view lies in `[fov_lo_deg, fov_hi_deg]`, in parallel; a
+/// frame that cannot be read is an `invalid_input` result naming it.
+#[pyfunction]
+#[pyo3(signature = (catalog, xys, magnitudes, width_px, height_px, fov_lo_deg, fov_hi_deg, config, threads=None))]
+pub fn identify_unknown_fov_many<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    xys: &Bound<'py, PyList>,
+    magnitudes: &Bound<'py, PyList>,
+    width_px: f64,
+    height_px: f64,
+    fov_lo_deg: f64,
+    fov_hi_deg: f64,
+    config: &Bound<'py, PyIdentifyConfig>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyList>> {
+    let frames = read_frames(xys, magnitudes)?;
+    let (solver, range, widest) = crate::pointing::unknown_fov_setup(
+        py, catalog, width_px, height_px, fov_lo_deg, fov_hi_deg,
+    )?;
+    let cfg = config.get().inner.clone();
+    let out = watched(py, |cancel| {
+        let cfg = starid_core::IdentifyConfig {
+            cancel: Some(cancel.clone()),
+            ..cfg
+        };
+        map_frames(frames.len(), threads, cancel.flag(), |i| match &frames[i] {
+            Err(e) => (
+                invalid(i, 0, e),
+                crate::pointing::focal_unknown(&widest),
+                f64::NAN,
+            ),
+            Ok((xy, m)) => match solver.identify_unknown_focal(
+                xy,
+                m.as_deref(),
+                width_px,
+                height_px,
+                range,
+                &cfg,
+            ) {
+                Ok(r) => crate::pointing::unknown_fov_result(r, &widest),
+                Err(e) => (
+                    invalid(i, xy.len(), &e.to_string()),
+                    crate::pointing::focal_unknown(&widest),
+                    f64::NAN,
+                ),
+            },
+        })
+    })?
+    .map_err(PyStaridError)?;
+    results(py, catalog, out)
+}
