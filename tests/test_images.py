@@ -243,7 +243,7 @@ def test_cli_annotates_an_image(tmp_path: Path, capsys: pytest.CaptureFixture[st
     Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(png)
     out = tmp_path / "annotated.png"
     assert main(["identify", str(png), "--fov-deg", "12", "--annotate", str(out)]) == 0
-    assert "annotated image written" in capsys.readouterr().out
+    assert f"wrote {out.resolve()}" in capsys.readouterr().err
     with Image.open(out) as im:
         assert im.size == (512, 384)
     assert main(["identify", str(png), str(png), "--fov-deg", "12", "--annotate", str(out)]) == 2

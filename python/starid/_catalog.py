@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from . import _starid
 from ._errors import CatalogError, InvalidInputError
+from ._files import checked_input, write_atomically
 
 __all__ = ["Catalog"]
 
@@ -144,6 +145,10 @@ class Catalog:
         >>> os.remove(f.name)
         """
         path = os.fspath(path)
+        try:
+            checked_input(path, "catalogue")
+        except InvalidInputError as e:
+            raise CatalogError(str(e)) from None
         try:
             native = _starid.Catalog.from_table_path(path)
         except CatalogError as e:
@@ -331,12 +336,17 @@ class Catalog:
         return dict(self._native.method_index(str(method), diag))
 
     def to_csv(self, path: PathLike) -> None:
-        """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag``."""
-        with open(os.fspath(path), "w", encoding="utf-8", newline="") as f:
-            w = csv.writer(f, lineterminator="\n")
-            w.writerow(["id", "ra_deg", "dec_deg", "mag"])
-            for i, ra, dec, m in zip(self.ids, self.ra_deg, self.dec_deg, self.mag):
-                w.writerow([int(i), f"{ra:.8f}", f"{dec:.8f}", f"{m:.4f}"])
+        """Write the catalogue as CSV with the columns ``id,ra_deg,dec_deg,mag`` (whole, or
+        not at all: see :func:`starid._files.write_atomically`)."""
+
+        def write(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8", newline="") as f:
+                w = csv.writer(f, lineterminator="\n")
+                w.writerow(["id", "ra_deg", "dec_deg", "mag"])
+                for i, ra, dec, m in zip(self.ids, self.ra_deg, self.dec_deg, self.mag):
+                    w.writerow([int(i), f"{ra:.8f}", f"{dec:.8f}", f"{m:.4f}"])
+
+        write_atomically(path, write)
 
     def __len__(self) -> int:
         return len(self._native)
@@ -460,21 +470,23 @@ def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":
     raise TypeError(f"catalog must be a starid.Catalog, a path or None, not {type(catalog).__name__}")
 
 
-_PATH_CACHE: "dict[tuple[str, int, int], Catalog]" = {}
+_PATH_CACHE: "dict[tuple[str, int, int, int, int], Catalog]" = {}
 _PATH_CACHE_SIZE = 8
 _PATH_CACHE_LOCK = threading.Lock()
 
 
 def _load_cached(path: str) -> "Catalog":
-    """A catalogue file loaded once per (absolute path, modification time, size): repeated
-    ``catalog="file.csv"`` calls share one catalogue and its pair indexes. A changed file is
-    read again; the 8 most recent files are kept."""
+    """A catalogue file loaded once per version of its content: repeated ``catalog="file.csv"``
+    calls share one catalogue and its pair indexes. A version is known by the file's inode, size,
+    modification time and status-change time: any write changes the last, which no user can set
+    back (unlike the modification time), so a rewritten file is read again. The 8 most recent
+    files are kept."""
     full = os.path.abspath(path)
     try:
         st = os.stat(full)
     except FileNotFoundError:
         raise FileNotFoundError(f"{path}: no such catalogue file") from None
-    key = (full, st.st_mtime_ns, st.st_size)
+    key = (full, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
     with _PATH_CACHE_LOCK:
         hit = _PATH_CACHE.get(key)
     if hit is not None:

@@ -15,7 +15,10 @@ import numpy as np
 
 from ._catalog import Catalog, resolve_catalog
 from ._identify import METHODS, Camera, Identification, identify, identify_many, simulate
-from .starlist import read_star_list
+from ._errors import InvalidInputError
+from ._files import same_file, write_atomically
+from .images import extract_centroids
+from .starlist import StarList, read_star_list
 
 EXAMPLE_FRAME = Path(__file__).parent / "data" / "example_frame.csv"
 EXAMPLE_FOV_DEG = 12.0
@@ -129,7 +132,7 @@ def _parser() -> argparse.ArgumentParser:
     sel.add_argument("--level", type=int, help="QTM methods: mesh level (default 5)")
     sel.add_argument("--fov-deg", type=float, default=10.0, help="field for the metrics")
     trk = sub.add_parser("track", help="identify a recorded sequence of centroid files, each from the last ones' attitude")
-    trk.add_argument("files", nargs="+", type=Path, help="star lists in time order: CSV or text, label,x,y[,mag] or x,y")
+    trk.add_argument("files", nargs="+", type=Path, help="star lists (CSV or text, label,x,y[,mag] or x,y) or images, in time order")
     when = trk.add_mutually_exclusive_group(required=True)
     when.add_argument("--times", help="frame times in seconds, comma-separated, one per file")
     when.add_argument("--frame-rate-hz", type=float, help="frames taken at this rate, the first at t = 0")
@@ -184,7 +187,22 @@ def _write_wcs(out: Path, res: Identification, size: Optional[tuple[float, float
 
     if size is None:
         raise ValueError("--wcs needs the image size")
-    fits.PrimaryHDU(header=fits.Header(wcs_header(res, size))).writeto(out, overwrite=True)
+    hdu = fits.PrimaryHDU(header=fits.Header(wcs_header(res, size)))
+    _wrote(write_atomically(out, lambda tmp: hdu.writeto(tmp, overwrite=True)))
+
+
+def _wrote(path: Path) -> None:
+    """Say which file was written (on stderr: stdout carries the results)."""
+    print(f"wrote {path}", file=sys.stderr)
+
+
+def _refuse_overwriting(outputs: Sequence[Optional[Path]], inputs: Sequence[Optional[Path]]) -> None:
+    """InvalidInputError when an output path names one of the inputs (a star list, an image or
+    the catalogue), checked before any work is done."""
+    for out in outputs:
+        for src in inputs:
+            if out is not None and src is not None and (same_file(out, src) or out.resolve() == src.resolve()):
+                raise InvalidInputError(f"{out}: is an input too; refusing to overwrite it")
 
 
 _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
@@ -192,6 +210,22 @@ _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".fits", ".
 
 def _is_image_file(path: Path) -> bool:
     return path.name.lower().endswith(_IMAGE_SUFFIXES)
+
+
+def _read_spots(path: Path) -> tuple[StarList, Optional[tuple[float, float]]]:
+    """The spots of a star list, or of an image with its size; ValueError naming the file when
+    it cannot be read."""
+    try:
+        if _is_image_file(path):
+            c = extract_centroids(path)
+            mags = c.magnitudes if np.isfinite(c.magnitudes).all() else None
+            return StarList([f"s{i}" for i in range(len(c))], c.xy, mags), c.image_size
+        return read_star_list(path), None
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except (ValueError, OSError, ImportError) as e:
+        msg = str(e)
+        raise ValueError(msg if str(path) in msg else f"{path}: {msg}") from None
 
 
 def _identify(args: argparse.Namespace) -> int:
@@ -214,6 +248,7 @@ def _identify(args: argparse.Namespace) -> int:
     if size is None and len(images) < len(files):
         print("starid identify: --size is required for star lists (images give their own)", file=sys.stderr)
         return 2
+    _refuse_overwriting([args.wcs, args.annotate], [*files, args.catalog])
     fov_range = None if args.fov_range_deg is None else tuple(sorted(args.fov_range_deg))
     catalog = resolve_catalog(args.catalog)
     results: list[dict[str, Any]] = []
@@ -226,22 +261,12 @@ def _identify(args: argparse.Namespace) -> int:
     sizes: dict[int, tuple[float, float]] = {}
     for k, path in enumerate(files):
         try:
-            if k in images:
-                # An image: its spots become the star list, its size the sensor's.
-                from .images import extract_centroids
-                from .starlist import StarList
-
-                c = extract_centroids(path)
-                sizes[k] = c.image_size
-                star_lists.append(StarList([f"s{i}" for i in range(len(c))], c.xy, c.magnitudes if np.isfinite(c.magnitudes).all() else None))
-                continue
-            star_lists.append(read_star_list(path))
-        except UnicodeDecodeError as e:
-            unreadable[k] = f"{path}: not UTF-8 text ({e.reason} at byte {e.start})"
-            star_lists.append(None)
-        except (ValueError, OSError, ImportError) as e:
-            msg = str(e)
-            unreadable[k] = msg if str(path) in msg else f"{path}: {msg}"
+            stars, image_size = _read_spots(path)
+            star_lists.append(stars)
+            if image_size is not None:
+                sizes[k] = image_size
+        except ValueError as e:
+            unreadable[k] = str(e)
             star_lists.append(None)
     bad_input = 0
 
@@ -321,8 +346,7 @@ def _identify(args: argparse.Namespace) -> int:
             from .plot import annotate
 
             annotate(path, res, args.annotate, catalog=catalog, xy=stars.xy)
-            if not args.json:
-                print(f"annotated image written to {args.annotate}")
+            _wrote(args.annotate.resolve())
         if args.json:
             d = res.to_dict()
             d["file"] = str(path)
@@ -368,6 +392,7 @@ def _identify(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    _refuse_overwriting([args.output], [args.catalog])
     frame = simulate(
         resolve_catalog(args.catalog),
         fov_deg=args.fov_deg,
@@ -381,11 +406,15 @@ def _simulate(args: argparse.Namespace) -> int:
         drop_fraction=args.drop_fraction,
         mirrored=args.mirrored,
     )
-    with open(args.output, "w", encoding="utf-8", newline="") as f:
-        w = csv.writer(f, lineterminator="\n")
-        w.writerow(["label", "x", "y", "mag"])
-        for i, ((x, y), m) in enumerate(zip(frame.xy, frame.magnitudes)):
-            w.writerow([f"s{i}", f"{x:.4f}", f"{y:.4f}", f"{m:.3f}"])
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            w = csv.writer(f, lineterminator="\n")
+            w.writerow(["label", "x", "y", "mag"])
+            for i, ((x, y), m) in enumerate(zip(frame.xy, frame.magnitudes)):
+                w.writerow([f"s{i}", f"{x:.4f}", f"{y:.4f}", f"{m:.3f}"])
+
+    _wrote(write_atomically(args.output, write, [args.catalog] if args.catalog is not None else []))
     truth = {
         "file": str(args.output),
         "seed": frame.seed,
@@ -460,6 +489,7 @@ def _boresight(args: argparse.Namespace) -> int:
 def _guide(args: argparse.Namespace) -> int:
     from . import guide
 
+    _refuse_overwriting([getattr(args, "output", None)], [args.catalog])
     cat = resolve_catalog(args.catalog)
     if args.guide_command == "compare":
         rows = guide.compare(
@@ -503,7 +533,7 @@ def _guide(args: argparse.Namespace) -> int:
         f"QTM level {args.level} weighted": guide.select(cat, "qtm-weighted", level=args.level),
     }
     guide.plot(selections, args.output, title=repr(cat), dpi=args.dpi)
-    print(f"wrote {args.output}")
+    _wrote(args.output.resolve())
     return 0
 
 
@@ -530,18 +560,18 @@ def _track(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     failures = bad_input = identified = 0
     for k, (path, t) in enumerate(zip(files, times)):
+        # A file that cannot be read, or a frame the tracker refuses (a spot off the sensor, a
+        # time that is not a number), is reported naming it, and the frames after it go on.
         try:
-            stars = read_star_list(path)
-        except UnicodeDecodeError as e:
-            print(f"starid track: {path}: not UTF-8 text ({e.reason} at byte {e.start})", file=sys.stderr)
-            bad_input += 1
-            continue
-        except (ValueError, OSError) as e:
+            stars, _ = _read_spots(path)
+            step = tracker.update(stars.xy, t, magnitudes=None if args.no_magnitudes else stars.magnitudes)
+        except ValueError as e:
             msg = str(e)
             print(f"starid track: {msg if str(path) in msg else f'{path}: {msg}'}", file=sys.stderr)
             bad_input += 1
+            if args.json:
+                print(json.dumps({"file": str(path), "t_s": t, "status": "invalid_input", "ok": False, "message": msg}))
             continue
-        step = tracker.update(stars.xy, t, magnitudes=None if args.no_magnitudes else stars.magnitudes)
         res = step.identification
         identified += int(res.ok)
         failures += int(not res.ok)

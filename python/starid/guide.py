@@ -41,6 +41,7 @@ import numpy.typing as npt
 
 from . import _starid
 from ._errors import InvalidInputError
+from ._files import write_atomically
 from ._catalog import Catalog, resolve_catalog
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -374,7 +375,7 @@ def plot(
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(os.fspath(path), dpi=dpi)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
     plt.close(fig)
 
 

@@ -12,6 +12,7 @@ True
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Union
@@ -22,8 +23,9 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
+from ._files import checked_input
 from . import _identify as _identify_module
-from ._identify import CatalogLike, Frame, Identification, _camera, _frame, _whole
+from ._identify import CatalogLike, Frame, Identification, _camera, _flag, _frame, _whole
 
 __all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
 
@@ -101,39 +103,67 @@ class ImageIdentification:
         return annotate(image, self, path, catalog=catalog, dpi=dpi)
 
 
+#: Largest image read, in pixels (``STARID_MAX_IMAGE_PIXELS`` changes it): checked from the file's
+#: header before its pixels are decoded. Pillow's own limit (``PIL.Image.MAX_IMAGE_PIXELS``,
+#: twice which it refuses a file) applies to PNG, JPEG and TIFF as well; the default is that.
+MAX_IMAGE_PIXELS = int(os.environ.get("STARID_MAX_IMAGE_PIXELS", 178_956_970))
+
+
+def _check_pixels(p: Path, width: int, height: int) -> None:
+    if width * height > MAX_IMAGE_PIXELS:
+        raise InvalidInputError(
+            f"{p}: {width} x {height} pixels, over the {MAX_IMAGE_PIXELS}-pixel limit (STARID_MAX_IMAGE_PIXELS raises it)"
+        )
+
+
 def read_image(path: PathLike) -> npt.NDArray[Any]:
     """Read an image file as a 2-D array (H, W): uint8 or uint16 as stored, float32 otherwise
-    (colour converted to luminance): PNG, JPEG, TIFF (8 or 16 bit) through Pillow (``pip install starid[images]``), FITS through
-    astropy (``pip install starid[fits]``; the first image HDU)."""
-    p = Path(os.fspath(path))
-    if p.is_dir():
-        raise IsADirectoryError(f"{p}: is a directory, not an image")
-    if not p.exists():
-        raise FileNotFoundError(f"{p}: no such image file")
+    (colour converted to luminance): PNG, JPEG, TIFF (8 or 16 bit) through Pillow, FITS through
+    astropy (``pip install 'starid-solver[fits]'``; the first image HDU).
+
+    A file that is not a regular file, is over :data:`~starid._files.MAX_FILE_BYTES` or
+    :data:`MAX_IMAGE_PIXELS`, or cannot be decoded (truncated, corrupt, a decompression bomb)
+    raises InvalidInputError naming it, never the reader's own exception."""
+    p = checked_input(path, "image")
     name = p.name.lower()
     if name.endswith(_FITS_SUFFIXES):
         try:
             from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
-        except ImportError as e:
-            raise ImportError("reading FITS images needs astropy: pip install 'starid[fits]'") from e
+        except ImportError:
+            raise ImportError("reading FITS images needs astropy: pip install 'starid-solver[fits]'") from None
         try:
-            with fits.open(p) as hdus:
-                data = next((np.asarray(h.data) for h in hdus if getattr(h, "data", None) is not None and h.data.ndim >= 2), None)
-        except OSError as e:
-            raise InvalidInputError(f"{p}: not a readable FITS file ({e})") from None
+            # The file is ours to close (astropy's handle would live on in a traceback).
+            with open(p, "rb") as fh, fits.open(fh, memmap=False) as hdus:
+                data = None
+                for h in hdus:
+                    shape = [int(h.header.get(f"NAXIS{k}", 0)) for k in range(1, int(h.header.get("NAXIS", 0)) + 1)]
+                    if len(shape) >= 2 and all(n > 0 for n in shape):
+                        _check_pixels(p, shape[0], int(np.prod(shape[1:])))
+                        data = np.asarray(h.data)
+                        break
+        except InvalidInputError:
+            raise
+        except Exception as e:  # astropy raises OSError, TypeError, ValueError... for broken files
+            raise InvalidInputError(f"{p}: not a readable FITS file ({type(e).__name__}: {e})") from None
         if data is None:
             raise InvalidInputError(f"{p}: holds no image")
         return _as_image(data, str(p))
     if p.suffix.lower() in _PIL_SUFFIXES:
         try:
             from PIL import Image
-        except ImportError as e:
-            raise ImportError("reading PNG/JPEG/TIFF images needs Pillow: pip install 'starid[images]'") from e
+        except ImportError:
+            raise ImportError("reading PNG/JPEG/TIFF images needs Pillow: pip install Pillow") from None
         try:
-            with Image.open(p) as im:
-                arr = np.asarray(im)
-        except (OSError, ValueError) as e:
-            raise InvalidInputError(f"{p}: not a readable image ({e})") from None
+            with warnings.catch_warnings():
+                # Our own pixel limit stands in for Pillow's decompression-bomb warning.
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(p) as im:
+                    _check_pixels(p, *im.size)
+                    arr = np.asarray(im)
+        except InvalidInputError:
+            raise
+        except Exception as e:  # Pillow raises OSError, ValueError, DecompressionBombError, SyntaxError...
+            raise InvalidInputError(f"{p}: not a readable image ({type(e).__name__}: {e})") from None
         return _as_image(arr, str(p))
     raise InvalidInputError(f"{p}: unsupported image format {p.suffix or '(none)'}: PNG, JPEG, TIFF or FITS")
 
@@ -225,9 +255,9 @@ def extract_centroids(
         _whole("max_spots", max_spots),
         None if saturation is None else float(saturation),
         float(max_elongation),
-        bool(drop_flagged),
+        _flag("drop_flagged", drop_flagged),
         float(hot_pixel_ratio),
-        bool(deblend),
+        _flag("deblend", deblend),
     )
     flux = np.asarray(raw["flux"], dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):

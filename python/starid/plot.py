@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from ._catalog import resolve_catalog_of
 from ._errors import InvalidInputError
+from ._files import write_atomically
 from ._identify import CatalogLike, Identification
 
 __all__ = ["annotate", "sky_to_pixel"]
@@ -153,6 +154,7 @@ def annotate(
     ax.text(0.01 * w, 0.985 * h, caption, color="white", fontsize=font, va="bottom", ha="left",
             bbox={"facecolor": "black", "alpha": 0.6, "pad": 2, "lw": 0})
     if path is not None:
-        fig.savefig(os.fspath(path), dpi=dpi)
+        inputs = [image] if isinstance(image, (str, os.PathLike)) else []
+        write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=dpi), inputs)
         plt.close(fig)
     return fig

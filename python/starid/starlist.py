@@ -10,6 +10,8 @@ from typing import Optional, Union
 import numpy as np
 import numpy.typing as npt
 
+from ._files import checked_input
+
 __all__ = ["StarList", "read_star_list"]
 
 _X = ("x", "x_px", "col", "column", "xc", "x_centroid")
@@ -51,7 +53,7 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
     >>> s.labels, s.xy.tolist()
     (['A', 'B'], [[10.5, 20.0], [30.0, 40.25]])
     """
-    path = os.fspath(path)
+    path = os.fspath(checked_input(path, "star list"))
     with open(path, encoding="utf-8-sig", newline="") as fh:
         text = fh.read()
     lines = [(n + 1, line.strip()) for n, line in enumerate(text.splitlines())]
