@@ -195,3 +195,11 @@ def test_numpy_scalars_are_numbers() -> None:
     f = starid.simulate(seed=2, noise_px=0.1)
     res = starid.identify(f.xy, fov_deg=np.float32(12.0), image_size=(np.int64(512), np.uint16(512)))
     assert res.ok
+
+
+def test_centroids_of_pure_noise_at_a_low_threshold_stay_on_the_image() -> None:
+    noise = np.random.default_rng(0).normal(1000, 20, (1200, 1600)).astype(np.float32)
+    res = starid.identify_image(noise, None, None, extract=dict(threshold_sigma=1.5, max_spots=10**6))
+    xy = res.centroids.xy
+    assert len(xy) > 1000
+    assert ((xy >= 0) & (xy <= [1600, 1200])).all()

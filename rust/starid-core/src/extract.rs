@@ -809,6 +809,21 @@ fn refine_gaussian(
     (x, y)
 }
 
+/// Whether `(x, y)` lies within a pixel of the bounding box of the component's pixels.
+fn near_component(comp: &[usize], width: usize, x: f64, y: f64) -> bool {
+    let (mut i0, mut i1, mut j0, mut j1) = (usize::MAX, 0, usize::MAX, 0);
+    for &k in comp {
+        let (i, j) = (k % width, k / width);
+        (i0, i1, j0, j1) = (i0.min(i), i1.max(i), j0.min(j), j1.max(j));
+    }
+    x.is_finite()
+        && y.is_finite()
+        && x >= i0 as f64 - 1.0
+        && x <= i1 as f64 + 2.0
+        && y >= j0 as f64 - 1.0
+        && y <= j1 as f64 + 2.0
+}
+
 /// Centroid, flux, shape and flags of one component.
 fn measure<T: Pixel>(
     img: &[T],
@@ -843,7 +858,9 @@ fn measure<T: Pixel>(
             if !owns(k) {
                 continue;
             }
-            let v = f64::from(resid[k]);
+            // Light only: a window of noise around a faint spot sums near zero, and dividing
+            // by such a sum would throw the centroid anywhere.
+            let v = f64::from(resid[k]).max(0.0);
             s += v;
             sx += v * (i as f64 + 0.5);
             sy += v * (j as f64 + 0.5);
@@ -882,6 +899,13 @@ fn measure<T: Pixel>(
         1.2 * (0.5 * (vxx + vyy)).max(0.0).sqrt(),
         owns,
     );
+    // A centroid is where the component's light is: one the window moved off the component's
+    // box (a spot lost in noise) is its own pixels' mean, which lies inside it.
+    let (x, y) = if near_component(comp, width, x, y) {
+        (x, y)
+    } else {
+        (mx, my)
+    };
     let tr = vxx + vyy;
     let disc = ((vxx - vyy).powi(2) + 4.0 * vxy * vxy).sqrt();
     let (l1, l2) = (0.5 * (tr + disc), (0.5 * (tr - disc)).max(1e-6));
@@ -1044,6 +1068,33 @@ mod tests {
         assert!(extract(&flat, 100, 81, &ExtractConfig::default()).is_err());
         let nan = vec![f32::NAN; 9];
         assert!(extract(&nan, 3, 3, &ExtractConfig::default()).is_err());
+    }
+
+    #[test]
+    fn centroids_of_noise_at_a_low_threshold_stay_on_the_image() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let (w, h) = (400usize, 300usize);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let noise = Normal::new(1000.0f32, 20.0).unwrap();
+        let img: Vec<f32> = (0..w * h).map(|_| noise.sample(&mut rng)).collect();
+        for threshold_sigma in [1.0, 1.5, 2.0, 3.0] {
+            let cfg = ExtractConfig {
+                threshold_sigma,
+                max_spots: 1_000_000,
+                ..ExtractConfig::default()
+            };
+            let spots = extract(&img, w, h, &cfg).unwrap().spots;
+            assert!(!spots.is_empty());
+            for s in &spots {
+                assert!(
+                    (0.0..=w as f64).contains(&s.x) && (0.0..=h as f64).contains(&s.y),
+                    "{threshold_sigma} sigma: a spot at ({}, {})",
+                    s.x,
+                    s.y
+                );
+            }
+        }
     }
 
     #[test]
