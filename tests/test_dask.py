@@ -14,11 +14,11 @@ import pytest
 
 import starid
 
-distributed = pytest.importorskip("distributed")
-import dask.bag as db  # noqa: E402
-import dask.dataframe as dd  # noqa: E402
+import dask.bag as db
+import dask.dataframe as dd
+import distributed
 
-import starid.dask as sd  # noqa: E402
+import starid.dask as sd
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning", "ignore::ResourceWarning", "ignore::UserWarning")
 
@@ -80,6 +80,17 @@ def test_a_malformed_frame_does_not_stop_the_job(client: distributed.Client, bun
     got = sd.identify_frames(bag, bundled, brightness_order=False, **CAM).compute().set_index("frame").sort_index()
     assert got.status.tolist() == ["identified", "invalid_input", "identified"]
     assert "frame" in got.loc[1].message
+
+
+def test_records_of_the_wrong_shape_are_bad_rows_named_by_their_key(client: distributed.Client, bundled: starid.Catalog) -> None:
+    good = starid.simulate(bundled, seed=1, **CAM).xy
+    records = [(5, good), (99,), None, good, (6, good), ("x", good), (7, np.array([[np.nan, 1.0]] * 4))]
+    bag = db.from_sequence(records, npartitions=2)
+    got = sd.identify_frames(bag, bundled, brightness_order=False, **CAM).compute()
+    assert len(got) == len(records)
+    assert got.status.tolist() == ["identified"] + ["invalid_input"] * 3 + ["identified"] + ["invalid_input"] * 2
+    assert got.frame.tolist()[:5] == [5, -1, -1, -1, 6]
+    assert got.message.iloc[-1].startswith("frame 7:") and "not (frame_key, xy" in got.message.iloc[1]
 
 
 def test_every_frame_once_when_a_worker_dies(client: distributed.Client, bundled: starid.Catalog) -> None:

@@ -20,6 +20,7 @@ calling: the functions here only build the graph.
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 from typing import Any, Optional, Union
 
@@ -29,7 +30,7 @@ import pandas as pd
 from . import _starid
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Identification, _camera, identify_many
+from ._identify import CatalogLike, Identification, _camera, _invalid, identify_many
 
 try:
     import dask.bag as dask_bag
@@ -68,6 +69,22 @@ FRAME_COLUMNS = {
 #: Columns of the per-spot result.
 SPOT_COLUMNS = {"frame": "object", "spot": "int64", "catalog_id": "int64", "residual_arcsec": "float64"}
 
+#: The frame key of a record that has none (a record that is not ``(key, xy[, magnitudes])``).
+MISSING_KEY: dict[str, Any] = {"int64": -1, "str": ""}
+
+
+def _key_fits(key: Any, frame_dtype: str) -> bool:
+    """Whether a record's key can stand in a key column of ``frame_dtype``."""
+    if frame_dtype.startswith("int"):
+        return isinstance(key, (int, np.integer)) and not isinstance(key, (bool, np.bool_))
+    return True
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 # Catalogues already on this worker, by content: their pair indexes are built once.
 _WORKER_CATALOGS: dict[str, Catalog] = {}
 
@@ -87,15 +104,41 @@ def _worker_catalog(cat: Catalog, key: str) -> Catalog:
 def _identify_records(
     records: list[Any], cat: Catalog, key: str, kwargs: dict[str, Any], spots: bool, frame_dtype: str
 ) -> pd.DataFrame:
-    """One partition: records ``(frame_key, xy[, magnitudes])`` → result rows."""
+    """One partition: records ``(frame_key, xy[, magnitudes])`` → result rows. A record of
+    another shape is an ``invalid_input`` row (its key, or :data:`MISSING_KEY` without one);
+    every message names the frame by its key."""
     cat = _worker_catalog(cat, key)
-    keys = [r[0] for r in records]
-    xys = [r[1] for r in records]
-    mags = [r[2] if len(r) > 2 else None for r in records]
+    missing = MISSING_KEY.get(frame_dtype, MISSING_KEY["str"])
+    keys: list[Any] = []
+    xys: list[Any] = []
+    mags: list[Any] = []
+    bad: dict[int, str] = {}
+    for i, r in enumerate(records):
+        if isinstance(r, (tuple, list)) and len(r) in (2, 3) and not _key_fits(r[0], frame_dtype):
+            keys.append(missing)
+            xys.append(np.empty((0, 2)))
+            mags.append(None)
+            bad[i] = f"record {i} of its partition has key {_short(r[0])}, not of the keys' type {frame_dtype}"
+        elif isinstance(r, (tuple, list)) and len(r) in (2, 3):
+            keys.append(r[0])
+            xys.append(r[1])
+            mags.append(r[2] if len(r) == 3 else None)
+        else:
+            keys.append(missing)
+            xys.append(np.empty((0, 2)))
+            mags.append(None)
+            bad[i] = f"record {i} of its partition is not (frame_key, xy[, magnitudes]): {type(r).__name__} {_short(r)}"
     have_mags = any(m is not None for m in mags)
     results = identify_many(xys, cat, magnitudes=mags if have_mags else None, **kwargs) if records else []
-    cols = _starid.result_columns(results, spots)
+    for i, r in enumerate(results):
+        if i in bad:
+            results[i] = _invalid(bad[i], 0)
+        elif r.status == "invalid_input":
+            # The batch names a frame by its place in the partition: the key is its name.
+            msg = re.sub(r"^frame \d+: ", "", r.message or "")
+            results[i] = _invalid(f"frame {keys[i]}: {msg}", len(r.ids))
     key_arr = pd.Series(keys, dtype=frame_dtype)
+    cols = _starid.result_columns(results, spots)
     if spots:
         table = pd.DataFrame(
             {
@@ -195,7 +238,8 @@ def identify_frames(
     if isinstance(frames, dask_bag.Bag):
         if frame_dtype is None:
             first = frames.take(1, npartitions=1, warn=False)  # type: ignore[no-untyped-call]
-            is_int = bool(first) and isinstance(first[0][0], (int, np.integer)) and not isinstance(first[0][0], bool)
+            head = first[0][0] if first and isinstance(first[0], (tuple, list)) and first[0] else None
+            is_int = isinstance(head, (int, np.integer)) and not isinstance(head, (bool, np.bool_))
             frame_dtype = "int64" if is_int else "str"
         meta = meta_for(frame_dtype)
         run = delayed(_identify_records, pure=True)
@@ -253,8 +297,6 @@ def _identify_paths(
 ) -> pd.DataFrame:
     """One partition of image files: read, extract, identify; a file that cannot be read gets
     status ``invalid_input`` with the reason."""
-    from ._identify import _invalid
-
     # None: each image gets the bundled catalogue its field needs, as identify_image chooses.
     cat = None if cat is None else _worker_catalog(cat, key)
     kw = dict(kwargs)
