@@ -203,3 +203,13 @@ def test_centroids_of_pure_noise_at_a_low_threshold_stay_on_the_image() -> None:
     xy = res.centroids.xy
     assert len(xy) > 1000
     assert ((xy >= 0) & (xy <= [1600, 1200])).all()
+
+
+def test_a_trail_far_off_the_sensor_costs_no_more_than_one_across_it() -> None:
+    import time
+
+    t0 = time.perf_counter()
+    img, _ = starid.simulate_image(None, 12.0, (320, 240), seed=1, trail=(-1e300, 0.0, 1e300, 1.0, 100.0))
+    assert time.perf_counter() - t0 < 5.0 and img.shape == (240, 320)
+    with pytest.raises(starid.InvalidInputError, match="trail"):
+        starid.simulate_image(None, 12.0, (320, 240), seed=1, trail=(0.0, 0.0, float("nan"), 10.0, 100.0))

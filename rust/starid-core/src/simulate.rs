@@ -686,6 +686,28 @@ fn erf(x: f64) -> f64 {
     }
 }
 
+/// The part of the segment `[x0, y0, x1, y1]` inside `[0, w] × [0, h]` (Liang–Barsky), or
+/// `None` when it misses the rectangle.
+fn clip_segment([x0, y0, x1, y1]: [f64; 4], w: f64, h: f64) -> Option<[f64; 4]> {
+    let (dx, dy) = (x1 - x0, y1 - y0);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [(-dx, x0), (dx, w - x0), (-dy, y0), (dy, h - y0)] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    (t0 <= t1).then(|| [x0 + t0 * dx, y0 + t0 * dy, x0 + t1 * dx, y0 + t1 * dy])
+}
+
 /// Render a simulated frame's spots (real and false, at their magnitudes) as a pixel image of
 /// the camera's size, row-major digital numbers: pixel-integrated Gaussian PSFs, sky with a
 /// gradient, hot pixels, an optional trail, Poisson shot noise, read noise, saturation and
@@ -728,10 +750,14 @@ pub fn render(
         && c.full_well_e > 0.0
         && c.gain_e_per_dn.is_finite()
         && c.gain_e_per_dn > 0.0
-        && (c.bits == 8 || c.bits == 16);
+        && (c.bits == 8 || c.bits == 16)
+        && c.hot_pixels <= w * h
+        && c.trail
+            .is_none_or(|(ends, per_px)| ends.iter().all(|v| v.is_finite()) && finite_pos(per_px));
     if !valid {
         return Err(Error::invalid_input(
-            "render: PSF σ in (0.05, 50) px, non-negative finite electrons, positive full well and gain, 8 or 16 bits",
+            "render: PSF σ in (0.05, 50) px, non-negative finite electrons, positive full well and gain, 8 or 16 bits, \
+             at most one hot pixel a pixel, a trail with finite ends",
         ));
     }
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x1AA6_E5EE);
@@ -755,7 +781,10 @@ pub fn render(
             }
         }
     }
-    if let Some(([x0, y0, x1, y1], per_px)) = c.trail {
+    // The trail's part on the sensor only: ends far off it cost no more than ends on its edge.
+    if let Some(([x0, y0, x1, y1], per_px)) = c.trail.and_then(|(ends, per_px)| {
+        clip_segment(ends, w as f64, h as f64).map(|ends| (ends, per_px))
+    }) {
         let len = (x1 - x0).hypot(y1 - y0);
         let steps = (2.0 * len).ceil().max(1.0) as usize;
         for k in 0..=steps {
@@ -786,4 +815,24 @@ pub fn render(
             v.round().clamp(0.0, max_dn) as f32
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_segment_is_clipped_to_the_sensor() {
+        let c = clip_segment([-1e6, 10.0, 1e6, 10.0], 640.0, 480.0).unwrap();
+        for (got, want) in c.iter().zip([0.0, 10.0, 640.0, 10.0]) {
+            assert!((got - want).abs() < 1e-6, "{c:?}");
+        }
+        // Ends at the limits of a float: the part on the sensor is what rounding leaves of it.
+        assert!(clip_segment([-1e300, 10.0, 1e300, 10.0], 640.0, 480.0).is_some());
+        assert_eq!(
+            clip_segment([10.0, 20.0, 30.0, 40.0], 640.0, 480.0),
+            Some([10.0, 20.0, 30.0, 40.0])
+        );
+        assert_eq!(clip_segment([-10.0, -5.0, -1.0, 500.0], 640.0, 480.0), None);
+    }
 }
