@@ -1,7 +1,10 @@
 """Pair-index sizes and build times: every index the solver keeps, for the bundled and the
 contest catalogue at the contest cameras' geometries (the README's "Pair indexes" figures).
 
-    python benches/bench_index.py [--repeat 3]
+    python benches/bench_index.py [--repeat 3] [--scaling 30000,100000,300000,1000000]
+
+``--scaling`` times the 12° index build of random catalogues of those sizes instead (uniform
+on the sky, magnitudes uniform in 0-12): near-linear growth is the target.
 
 Each build uses a fresh copy of the catalogue (no cached index); times are the fastest of
 ``--repeat`` builds, sizes are exact.
@@ -22,7 +25,11 @@ GEOMETRIES = [("12°/512 px", 12.0, (512, 512)), ("20°/1024 px", 20.0, (1024, 1
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--scaling", help="comma-separated catalogue sizes: time the build per size")
     args = ap.parse_args()
+    if args.scaling:
+        scaling([int(n) for n in args.scaling.split(",")], args.repeat)
+        return
     catalogs = [("bundled (Hipparcos Hp <= 6.5)", starid.Catalog.default()), ("contest (4908)", starid.Catalog.from_csv(CONTEST))]
     print("| catalogue | frames | pairs + bright pairs | pair index | bright index | magnitude index | all | build (pairs) | build (magnitude) |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -43,6 +50,27 @@ def main() -> None:
                 f"{best['magnitude_index_bytes'] * mb:.2f} MB | {best['memory_bytes'] * mb:.2f} MB | "
                 f"{best['build_time_s'] * 1e3:.0f} ms | {best['magnitude_index_build_time_s'] * 1e3:.0f} ms |"
             )
+
+
+def scaling(sizes: list[int], repeat: int) -> None:
+    """Build time of the 12° index against catalogue size (random catalogues)."""
+    import time
+
+    import numpy as np
+
+    print("| stars | build | per 1 000 stars |")
+    print("|---|---|---|")
+    for n in sizes:
+        rng = np.random.default_rng(n)
+        ra, dec = rng.uniform(0, 360, n), np.degrees(np.arcsin(rng.uniform(-1, 1, n)))
+        mag = rng.uniform(0, 12, n)
+        best = float("inf")
+        for _ in range(repeat):
+            cat = starid.Catalog(np.arange(n), ra, dec, mag)
+            t0 = time.perf_counter()
+            cat.index_info(12.0, (512, 512))
+            best = min(best, time.perf_counter() - t0)
+        print(f"| {n:,} | {best:.2f} s | {best / n * 1e6:.2f} ms |")
 
 
 if __name__ == "__main__":

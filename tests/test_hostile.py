@@ -198,3 +198,18 @@ def test_a_numpy_scalar_hint_is_one_hint_for_the_batch() -> None:
     frames = [starid.simulate(seed=s, attitude_deg=(83.0, -5.0, 0.0), noise_px=0.1).xy for s in range(3)]
     res = starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), attitude_hint=(np.int64(83), -5, 0))
     assert [r.ok for r in res] == [True, True, True]
+
+
+def test_ctrl_c_stops_waiting_for_an_index_build(ctrl_c: Callable[[float], None]) -> None:
+    rng = np.random.default_rng(6)
+    n = 300_000
+    cat = starid.Catalog(np.arange(n), rng.uniform(0, 360, n), np.degrees(np.arcsin(rng.uniform(-1, 1, n))),
+                         rng.uniform(0, 12, n))
+    frame = starid.simulate(seed=1).xy
+    ctrl_c(0.2)
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        starid.identify(frame, cat, fov_deg=12.0, image_size=(512, 512))
+    assert time.perf_counter() - t0 < 0.2 + 0.5
+    # The build went on in the background: the next call waits for it and uses it.
+    assert starid.identify(frame, cat, fov_deg=12.0, image_size=(512, 512)).status != "invalid_input"

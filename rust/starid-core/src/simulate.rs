@@ -705,7 +705,7 @@ fn clip_segment([x0, y0, x1, y1]: [f64; 4], w: f64, h: f64) -> Option<[f64; 4]> 
             }
         }
     }
-    (t0 <= t1).then(|| [x0 + t0 * dx, y0 + t0 * dy, x0 + t1 * dx, y0 + t1 * dy])
+    (t0 <= t1).then_some([x0 + t0 * dx, y0 + t0 * dy, x0 + t1 * dx, y0 + t1 * dy])
 }
 
 /// Render a simulated frame's spots (real and false, at their magnitudes) as a pixel image of

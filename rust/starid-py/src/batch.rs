@@ -66,6 +66,58 @@ where
     })
 }
 
+/// `work()` with the GIL released on a thread of its own, while this one lets Python handle
+/// signals every 20 ms: Ctrl-C raises KeyboardInterrupt at once and leaves the work to finish
+/// in the background (for work whose result is kept anyway, such as an index build).
+pub fn detached<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send + 'static,
+    F: FnOnce() -> T + Send + 'static,
+{
+    type Slot<T> = (
+        std::sync::Mutex<Option<std::thread::Result<T>>>,
+        std::sync::Condvar,
+    );
+    let slot: std::sync::Arc<Slot<T>> = Default::default();
+    let theirs = slot.clone();
+    std::thread::Builder::new()
+        .name("starid-build".into())
+        .spawn(move || {
+            let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+            *theirs
+                .0
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(out);
+            theirs.1.notify_all();
+        })
+        .map_err(|e| {
+            crate::errors::InvalidInputError::new_err(format!("cannot start a thread: {e}"))
+        })?;
+    loop {
+        py.check_signals()?;
+        let got = py.detach(|| {
+            let guard = slot
+                .0
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            let (mut guard, _) = slot
+                .1
+                .wait_timeout_while(guard, SIGNAL_CHECK, |d| d.is_none())
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            guard.take()
+        });
+        match got {
+            Some(Ok(out)) => return Ok(out),
+            Some(Err(_)) => {
+                return Err(crate::errors::InvalidInputError::new_err(
+                    "index build thread panicked",
+                ))
+            }
+            None => {}
+        }
+    }
+}
+
 /// The frames of a batch as the core takes them; a frame that cannot be read keeps its error,
 /// which becomes its `invalid_input` result.
 fn read_frames(

@@ -19,7 +19,7 @@ use crate::run_core;
 pub struct PyCatalog {
     pub inner: Arc<Catalog>,
     /// Pair indexes built for it (the core's cache: each built once).
-    solvers: SolverCache,
+    solvers: Arc<SolverCache>,
     /// What the Python `Catalog` calls it (results name the catalogue they used).
     name: std::sync::Mutex<Option<String>>,
 }
@@ -28,7 +28,7 @@ impl PyCatalog {
     pub fn wrap(inner: Catalog) -> Self {
         let inner = Arc::new(inner);
         Self {
-            solvers: SolverCache::new(inner.clone()),
+            solvers: Arc::new(SolverCache::new(inner.clone())),
             inner,
             name: std::sync::Mutex::new(None),
         }
@@ -43,11 +43,17 @@ impl PyCatalog {
     }
 
     /// A solver whose pair index covers `max_angle_rad`, built once (with the GIL released).
+    /// Ctrl-C during a build raises KeyboardInterrupt at once; the build goes on in the
+    /// background and is kept for the next call.
     pub fn solver(&self, py: Python<'_>, max_angle_rad: f64) -> PyResult<Arc<Solver>> {
         // A built one without releasing the GIL (a look-up); building takes long.
         match self.solvers.cached(max_angle_rad) {
             Some(s) => Ok(s),
-            None => run_core(py, || self.solvers.solver(max_angle_rad)),
+            None => {
+                let cache = self.solvers.clone();
+                crate::batch::detached(py, move || cache.solver(max_angle_rad))?
+                    .map_err(|e| PyStaridError(e).into())
+            }
         }
     }
 }
