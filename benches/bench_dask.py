@@ -1,6 +1,7 @@
 """starid.dask on a LocalCluster against identify_many on the same machine, the same frames.
 
     python benches/bench_dask.py [--frames 1000000] [--partitions 100]
+    python benches/bench_dask.py --parquet 200000 [--files 8]
 
 Frames: 1 000 distinct simulated 12°/512 px frames (bundled catalogue, mag 6, 0.2 px, spots
 in random order), repeated to ``--frames``; the Dask bag builds each partition's records on its
@@ -9,6 +10,12 @@ frames/s for identify_many (all cores, one process) and for LocalClusters of 1 a
 processes (one thread each: identify_many inside a partition uses the worker's cores), the
 ratio to identify_many, the workers' peak memory (RSS sampled every 0.2 s), and the engine's
 cost per task (a job of ``--partitions`` one-frame partitions).
+
+``--parquet N`` times a spot table instead: N frames as rows (frame, x, y) in ``--files``
+Parquet files, each holding whole frames. One process reads them with pandas, splits the rows
+into frames with numpy and calls identify_many; a LocalCluster of 2 workers runs
+``starid.dask.identify_frames(path)``. Reported: both times, their ratio (target >= 0.8) and
+whether the results are identical.
 """
 
 from __future__ import annotations
@@ -23,12 +30,59 @@ import numpy as np
 import starid
 
 
+def parquet_run(n: int, files: int) -> None:
+    """identify_frames on a Parquet spot table against one process on the same files."""
+    import os
+    import tempfile
+
+    import distributed
+    import pandas as pd
+
+    import starid.dask as sd
+
+    cat = starid.Catalog.default()
+    kw: dict[str, Any] = dict(fov_deg=12.0, image_size=(512, 512))
+    pool = [starid.simulate(cat, seed=s, noise_px=0.2, mag_limit=6.0, **kw).xy for s in range(1000)]
+    with tempfile.TemporaryDirectory() as d:
+        per_file = -(-n // files)
+        for f in range(files):
+            ks = range(f * per_file, min((f + 1) * per_file, n))
+            xy = np.concatenate([pool[k % 1000] for k in ks])
+            fr = np.concatenate([np.full(len(pool[k % 1000]), k, np.int64) for k in ks])
+            pd.DataFrame({"frame": fr, "x": xy[:, 0], "y": xy[:, 1]}).to_parquet(f"{d}/part{f}.parquet")
+        names = sorted(os.listdir(d))
+        starid.identify_many(pool[:10], cat, **kw)  # index built outside the timing
+        t = time.perf_counter()
+        table = pd.concat([pd.read_parquet(f"{d}/{f}") for f in names])
+        keys = table.frame.to_numpy()
+        cuts = np.flatnonzero(np.diff(keys)) + 1
+        local = starid.identify_many(np.split(table[["x", "y"]].to_numpy(), cuts), cat, **kw)
+        t_local = time.perf_counter() - t
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+        with distributed.Client(cluster):
+            sd.identify_frames(f"{d}/{names[0]}", cat, **kw).head(1, npartitions=1)  # workers warm
+            t = time.perf_counter()
+            got = sd.identify_frames(d, cat, **kw).compute()
+            t_dask = time.perf_counter() - t
+        cluster.close()
+    got = got.set_index("frame").sort_index()
+    same = got.n_matched.tolist() == [r.n_matched for r in local] and got.status.tolist() == [r.status for r in local]
+    print(f"| frames | one process | LocalCluster, 2 workers | ratio | identical |")
+    print("|---|---|---|---|---|")
+    print(f"| {n:,} in {files} files | {t_local:.2f} s | {t_dask:.2f} s | {t_local / t_dask:.2f} | {same} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--parquet", type=int, help="frames of a Parquet spot-table run (instead of the bag runs)")
+    ap.add_argument("--files", type=int, default=8, help="Parquet files of the --parquet run")
     ap.add_argument("--frames", type=int, default=1_000_000)
     ap.add_argument("--partitions", type=int, default=100)
     ap.add_argument("--images", type=int, default=200, help="simulated 1024x768 PNG images for the image run")
     args = ap.parse_args()
+    if args.parquet:
+        parquet_run(args.parquet, args.files)
+        return
     import dask.bag as db
     import distributed
     from dask.delayed import delayed

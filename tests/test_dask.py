@@ -139,3 +139,53 @@ def test_image_files_on_the_cluster(client: distributed.Client, bundled: starid.
         want = starid.identify(p, bundled, 12.0)
         assert df.loc[p].ok and df.loc[p].n_matched == want.n_matched
     assert df.loc[paths[6]].status == "invalid_input" and "missing.png" in df.loc[paths[6]].message
+
+
+def test_parquet_files_of_whole_frames_are_read_without_a_shuffle(
+    client: distributed.Client, frames: list[starid.Frame], bundled: starid.Catalog, tmp_path: Path
+) -> None:
+    want = _expected(frames, bundled)
+    folder = tmp_path / "whole"
+    folder.mkdir()
+    rows = [(k, x, y, m) for k, f in enumerate(frames) for (x, y), m in zip(f.xy, f.magnitudes)]
+    table = pd.DataFrame(rows, columns=["frame", "x", "y", "mag"])
+    # Three files of whole frames; within a file, two frames' rows interleaved.
+    for i, part in enumerate(np.array_split(np.arange(len(frames)), 3)):
+        sub = table[table.frame.isin(part)]
+        a, b = sub[sub.frame == part[0]], sub[sub.frame == part[1]]
+        mixed = pd.concat([a.iloc[::2], b.iloc[::2], a.iloc[1::2], b.iloc[1::2], sub[~sub.frame.isin(part[:2])]])
+        mixed.to_parquet(folder / f"part{i}.parquet")
+    assert sd._whole_frame_files(str(folder), "frame") is not None
+    got = sd.identify_frames(str(folder), bundled, mag_column="mag", brightness_order=False, **CAM).compute()
+    got = got.set_index("frame").sort_index()
+    assert len(got) == len(frames)
+    assert [got.loc[k].n_matched for k in range(len(frames))] == [w.n_matched for w in want]
+    assert [got.loc[k].status for k in range(len(frames))] == [w.status for w in want]
+    # A frame split across two files: not whole, so the rows are brought together first.
+    split = tmp_path / "split"
+    split.mkdir()
+    table.iloc[: len(table) // 2 + 3].to_parquet(split / "a.parquet")
+    table.iloc[len(table) // 2 + 3 :].to_parquet(split / "b.parquet")
+    assert sd._whole_frame_files(str(split), "frame") is None
+    again = sd.identify_frames(str(split), bundled, mag_column="mag", brightness_order=False, **CAM).compute()
+    again = again.set_index("frame").sort_index()
+    assert [again.loc[k].n_matched for k in range(len(frames))] == [w.n_matched for w in want]
+
+
+def test_an_unknown_zero_point_is_learned_per_partition(client: distributed.Client, bundled: starid.Catalog) -> None:
+    rng = np.random.default_rng(8)
+    scenes = [starid.simulate_scene("K1", seed=s) for s in range(24)]
+    mags = [f.magnitudes + 4.0 + rng.normal(0.0, 0.3, len(f.xy)) for f in scenes]
+    kw = dict(fov_deg=scenes[0].fov_deg, image_size=scenes[0].image_size, mag_offset=None)
+    records = [(k, f.xy, m) for k, (f, m) in enumerate(zip(scenes, mags))]
+    for parts in (1, 3):
+        got = sd.identify_frames(db.from_sequence(records, npartitions=parts), bundled, **kw).compute()
+        got = got.set_index("frame").sort_index()
+        # As identify_many over each partition's frames: the partition is the batch that learns.
+        want: list[starid.Identification] = []
+        chunks = db.from_sequence(records, npartitions=parts).map_partitions(lambda rs: [[r[0] for r in rs]]).compute()
+        for keys in chunks:
+            want += starid.identify_many([scenes[k].xy for k in keys], bundled, magnitudes=[mags[k] for k in keys], **kw)
+        order = [k for keys in chunks for k in keys]
+        assert len(chunks) == parts and sorted(order) == list(range(len(scenes)))
+        assert [got.loc[k].n_matched for k in order] == [w.n_matched for w in want]

@@ -20,6 +20,7 @@ calling: the functions here only build the graph.
 from __future__ import annotations
 
 import hashlib
+import os
 import re
 from pathlib import Path
 from typing import Any, Optional, Union
@@ -35,6 +36,7 @@ from ._identify import CatalogLike, Identification, _camera, _invalid, identify_
 try:
     import dask.bag as dask_bag
     import dask.dataframe as dd
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
     from dask.delayed import delayed
 except ImportError as e:  # pragma: no cover - depends on the environment
     raise ImportError("starid.dask needs Dask: pip install 'starid[dask]'") from e
@@ -129,7 +131,22 @@ def _identify_records(
             mags.append(None)
             bad[i] = f"record {i} of its partition is not (frame_key, xy[, magnitudes]): {type(r).__name__} {_short(r)}"
     have_mags = any(m is not None for m in mags)
-    results = identify_many(xys, cat, magnitudes=mags if have_mags else None, **kwargs) if records else []
+    return _identify_frames_of(keys, xys, mags if have_mags else None, cat, kwargs, spots, frame_dtype, bad)
+
+
+def _identify_frames_of(
+    keys: Any,
+    xys: list[Any],
+    mags: Optional[list[Any]],
+    cat: Catalog,
+    kwargs: dict[str, Any],
+    spots: bool,
+    frame_dtype: str,
+    bad: Optional[dict[int, str]] = None,
+) -> pd.DataFrame:
+    """The result rows of one partition's frames (``bad``: frames already refused, and why)."""
+    bad = bad or {}
+    results = identify_many(xys, cat, magnitudes=mags, **kwargs) if len(xys) else []
     for i, r in enumerate(results):
         if i in bad:
             results[i] = _invalid(bad[i], 0)
@@ -170,15 +187,65 @@ def _frame_table(keys: Any, cols: dict[str, Any], frame_dtype: str) -> pd.DataFr
     return table.astype(dict(FRAME_COLUMNS, frame=frame_dtype))
 
 
-def _records_from_spots(part: pd.DataFrame, frame: str, x: str, y: str, mag: Optional[str]) -> list[Any]:
-    """Rows of one partition, one per spot, grouped into frame records (input order kept)."""
-    out: list[Any] = []
+def _frames_of_spots(
+    part: pd.DataFrame, frame: str, x: str, y: str, mag: Optional[str]
+) -> tuple[Any, list[Any], Optional[list[Any]]]:
+    """Rows of one partition, one per spot, grouped into frames without a loop per frame: the
+    frames' keys (in order of first appearance), their (N, 2) centroids and magnitudes (rows
+    in their order within each frame)."""
     if "_starid_row" in part.columns:
         part = part.sort_values("_starid_row", kind="stable")
-    for key_, g in part.groupby(frame, sort=False):
-        xy = np.column_stack([g[x].to_numpy(np.float64), g[y].to_numpy(np.float64)])
-        out.append((key_, xy, g[mag].to_numpy(np.float64)) if mag is not None else (key_, xy))
-    return out
+    codes, uniques = pd.factorize(part[frame], sort=False)
+    xy = np.column_stack([part[x].to_numpy(np.float64), part[y].to_numpy(np.float64)])
+    m = None if mag is None else part[mag].to_numpy(np.float64)
+    if len(codes) > 1 and not (np.diff(codes) >= 0).all():
+        order = np.argsort(codes, kind="stable")
+        codes, xy = codes[order], xy[order]
+        m = None if m is None else m[order]
+    cuts = np.flatnonzero(np.diff(codes)) + 1
+    xys = np.split(xy, cuts)
+    mags = None if m is None else np.split(m, cuts)
+    return np.asarray(uniques), xys, mags
+
+
+def _parquet_files(path: str) -> list[str]:
+    """The Parquet files of a dataset: the file itself, or those under a folder, in order."""
+    p = Path(path)
+    if p.is_file():
+        return [str(p)]
+    return sorted(str(f) for f in p.rglob("*.parquet") if f.is_file())
+
+
+def _whole_frame_files(path: str, frame: str) -> Optional[list[str]]:
+    """The dataset's files, when their statistics show every frame within one file (the
+    files' key ranges are disjoint), in key order; None when that cannot be shown."""
+    files = _parquet_files(path)
+    if len(files) < 1 or "://" in path:
+        return None
+    ranges = []
+    for f in files:
+        meta = pq.ParquetFile(f).metadata
+        names = [meta.schema.column(i).name for i in range(meta.num_columns)]
+        if frame not in names:
+            return None
+        col = names.index(frame)
+        lo = hi = None
+        for g in range(meta.num_row_groups):
+            st = meta.row_group(g).column(col).statistics
+            if st is None or not st.has_min_max:
+                return None
+            lo = st.min if lo is None else min(lo, st.min)
+            hi = st.max if hi is None else max(hi, st.max)
+        if lo is not None:
+            ranges.append((lo, hi, f))
+    ranges.sort(key=lambda r: r[0])
+    if any(a[1] >= b[0] for a, b in zip(ranges, ranges[1:])):
+        return None
+    return [f for _, _, f in ranges]
+
+
+def _read_file(path: str, columns: list[str]) -> pd.DataFrame:
+    return pd.read_parquet(path, columns=columns)
 
 
 def identify_frames(
@@ -204,7 +271,10 @@ def identify_frames(
         (N, 2) array), or a Dask DataFrame with one row per spot (columns ``frame_column``,
         ``x_column``, ``y_column`` and optionally ``mag_column``), or the path of a Parquet
         dataset of such rows. Rows of one frame are brought into one partition (a shuffle on
-        the frame column) unless the frame column is already the sorted index.
+        the frame column) unless the frame column is already the sorted index, or the Parquet
+        files' statistics show that each file holds whole frames (then each file is one
+        partition, read as it is). Within a partition the rows are grouped into frames with
+        numpy, not a loop per frame.
     catalog, fov_deg, image_size, **kwargs
         As :func:`starid.identify_many` (``camera=``, ``fov_range_deg=``, ``method=``, the
         settings...). The catalogue is sent once per worker.
@@ -219,7 +289,10 @@ def identify_frames(
     -------
     dask.dataframe.DataFrame
         Lazy: ``.compute()``, ``.to_parquet(...)``. Results equal :func:`starid.identify_many`'s,
-        frame for frame; a malformed frame gets status ``invalid_input``, never stops the job.
+        frame for frame; a malformed frame or record gets status ``invalid_input``, never stops
+        the job. With ``mag_offset=None`` (a zero point to learn), each partition is the batch
+        that learns it, as ``identify_many`` over that partition's frames would: a job of many
+        partitions does not pool them.
     """
     cam = _camera(kwargs.get("camera"), fov_deg, image_size) if (fov_deg is not None or kwargs.get("camera") is not None) else None
     cat = resolve_catalog_for(catalog, cam)  # as identify_many chooses
@@ -233,8 +306,23 @@ def identify_frames(
         cols = dict(SPOT_COLUMNS if spots else FRAME_COLUMNS, frame=ftype)
         return pd.DataFrame({k: pd.Series(dtype=v) for k, v in cols.items()})
 
-    if isinstance(frames, str):
-        frames = dd.read_parquet(frames)
+    whole_frames = False
+    if isinstance(frames, (str, os.PathLike)):
+        path = os.fspath(frames)
+        files = _whole_frame_files(path, frame_column)
+        if files:
+            # Each file holds whole frames: one partition a file, no shuffle.
+            columns = [c for c in (frame_column, x_column, y_column, mag_column) if c]
+            schema_meta = pq.read_schema(files[0]).empty_table().to_pandas()
+            missing_cols = [c for c in columns if c not in schema_meta.columns]
+            if missing_cols:
+                raise InvalidInputError(f"the spot table has no column {missing_cols[0]!r} (columns: {list(schema_meta.columns)})")
+            frames = dd.from_map(  # type: ignore[no-untyped-call]
+                _read_file, files, columns=columns, meta=schema_meta[columns], enforce_metadata=False
+            )
+            whole_frames = True
+        else:
+            frames = dd.read_parquet(path)
     if isinstance(frames, dask_bag.Bag):
         if frame_dtype is None:
             first = frames.take(1, npartitions=1, warn=False)  # type: ignore[no-untyped-call]
@@ -251,7 +339,9 @@ def identify_frames(
         for col in (x_column, y_column) + ((mag_column,) if mag_column else ()):
             if col not in df.columns:
                 raise InvalidInputError(f"the spot table has no column {col!r} (columns: {list(df.columns)})")
-        if frame_column not in df.columns:
+        if whole_frames:
+            pass
+        elif frame_column not in df.columns:
             if df.index.name != frame_column:
                 raise InvalidInputError(f"the spot table has no frame column {frame_column!r}")
             # Sorted by frame already: whole frames per partition, rows in their order.
@@ -265,10 +355,12 @@ def identify_frames(
         meta = meta_for(ftype)
 
         def part(p: pd.DataFrame, c: Catalog) -> pd.DataFrame:
-            recs = _records_from_spots(p, frame_column, x_column, y_column, mag_column)
-            return _identify_records(recs, c, key, kw, spots, ftype)
+            keys, xys, mags = _frames_of_spots(p, frame_column, x_column, y_column, mag_column)
+            return _identify_frames_of(keys, xys, mags, _worker_catalog(c, key), kw, spots, ftype)
 
-        mapped: dd.DataFrame = df.map_partitions(part, cat_node, meta=meta, enforce_metadata=False, align_dataframes=False)
+        mapped: dd.DataFrame = df.map_partitions(  # type: ignore[no-untyped-call,unused-ignore]
+            part, cat_node, meta=meta, enforce_metadata=False, align_dataframes=False
+        )
         return mapped
     raise InvalidInputError(f"frames must be a Dask bag, a Dask DataFrame or a Parquet path, not {type(frames).__name__}")
 
