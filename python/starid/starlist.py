@@ -10,7 +10,12 @@ from typing import Optional, Union
 import numpy as np
 import numpy.typing as npt
 
+from ._errors import InvalidInputError
 from ._files import checked_input
+
+#: Longest line of a star list: a row holds a label, two coordinates and a magnitude (and a
+#: few more columns at most).
+MAX_LINE_CHARS = 4096
 
 __all__ = ["StarList", "read_star_list"]
 
@@ -41,7 +46,7 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
 
     Raises
     ------
-    ValueError
+    InvalidInputError (a ValueError)
         When the file holds no centroid or a row is malformed (the message names the line).
 
     Examples
@@ -59,7 +64,10 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
     lines = [(n + 1, line.strip()) for n, line in enumerate(text.splitlines())]
     rows = [(n, line) for n, line in lines if line and not line.startswith("#")]
     if not rows:
-        raise ValueError(f"{path}: holds no centroids")
+        raise InvalidInputError(f"{path}: holds no centroids")
+    for n, line in rows:
+        if len(line) > MAX_LINE_CHARS:
+            raise InvalidInputError(f"{path}: line {n} has {len(line)} characters: not a star-list row (label, x, y, mag)")
     comma = "," in rows[0][1]
 
     def split(line: str) -> list[str]:
@@ -78,7 +86,7 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
         elif ncol >= 4:
             cols = {"label": 0, "x": 1, "y": 2, "mag": 3}
         else:
-            raise ValueError(f"{path}:{rows[0][0]}: expected columns x,y or label,x,y[,mag], found {ncol}")
+            raise InvalidInputError(f"{path}:{rows[0][0]}: expected columns x,y or label,x,y[,mag], found {ncol}")
         data = rows
     else:
         names = [f.lower() for f in first]
@@ -88,10 +96,10 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
             if hit is not None:
                 cols[key] = hit
         if "x" not in cols or "y" not in cols:
-            raise ValueError(f"{path}:{rows[0][0]}: the header {first} names no x and y columns")
+            raise InvalidInputError(f"{path}:{rows[0][0]}: the header {first} names no x and y columns")
         data = rows[1:]
         if not data:
-            raise ValueError(f"{path}: holds a header but no centroids")
+            raise InvalidInputError(f"{path}: holds a header but no centroids")
     need = max(cols.values()) + 1
     labels: list[str] = []
     xy: list[tuple[float, float]] = []
@@ -99,13 +107,13 @@ def read_star_list(path: Union[str, "os.PathLike[str]"]) -> StarList:
     for n, line in data:
         f = split(line)
         if len(f) < need:
-            raise ValueError(f"{path}:{n}: expected at least {need} fields, found {len(f)}")
+            raise InvalidInputError(f"{path}:{n}: expected at least {need} fields, found {len(f)}")
         try:
             x, y = float(f[cols["x"]]), float(f[cols["y"]])
             if "mag" in cols:
                 mags.append(float(f[cols["mag"]]))
         except ValueError as e:
-            raise ValueError(f"{path}:{n}: {e}") from None
+            raise InvalidInputError(f"{path}:{n}: {e}") from None
         xy.append((x, y))
         labels.append(f[cols["label"]] if "label" in cols else str(len(labels)))
     return StarList(
