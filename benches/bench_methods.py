@@ -70,7 +70,7 @@ def score(frames: list[Any], results: list[Any]) -> dict[str, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=1000, help="frames per cell")
-    ap.add_argument("--plot", type=Path, help="save the rate plots here (needs starid[plot])")
+    ap.add_argument("--plot", type=Path, help="save the rate plots here (needs starid-solver[plot])")
     ap.add_argument("--markdown", action="store_true", help="print the summary table as Markdown")
     args = ap.parse_args()
     cat = starid.Catalog.from_csv(CONTEST)
@@ -128,7 +128,7 @@ def plot(rows: list[dict[str, Any]], n: int, path: Path) -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise SystemExit("the plot needs matplotlib: pip install starid[plot]") from None
+        raise SystemExit("the plot needs matplotlib: pip install 'starid-solver[plot]'") from None
     noise = [("clean", 0.0), ("noise 0.5 px", 0.5), ("noise 1 px", 1.0), ("noise 2 px", 2.0)]
     false = [("clean", 0), ("1 false", 1), ("3 false", 3), ("10 false", 10)]
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), sharey=True)

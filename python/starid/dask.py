@@ -1,4 +1,4 @@
-"""Scale-out on Dask: identify archives of frames on a cluster (``pip install starid[dask]``).
+"""Scale-out on Dask: identify archives of frames on a cluster (``pip install 'starid-solver[dask]'``).
 
 The work divides by partition: each Dask task identifies one partition's frames with
 :func:`starid.identify_many` (Rust threads, GIL released, every core of the worker). The
@@ -39,7 +39,7 @@ try:
     import pyarrow.parquet as pq  # type: ignore[import-untyped]
     from dask.delayed import delayed
 except ImportError as e:  # pragma: no cover - depends on the environment
-    raise ImportError("starid.dask needs Dask: pip install 'starid[dask]'") from e
+    raise ImportError("starid.dask needs Dask: pip install 'starid-solver[dask]'") from None
 
 __all__ = ["FRAME_COLUMNS", "SPOT_COLUMNS", "identify_frames", "identify_images"]
 
@@ -374,7 +374,7 @@ def _read_any(path: str) -> np.ndarray:
     try:
         import fsspec  # type: ignore[import-untyped,unused-ignore]
     except ImportError as e:  # pragma: no cover - fsspec comes with dask
-        raise ImportError("reading image URLs needs fsspec: pip install 'starid[dask]'") from e
+        raise ImportError("reading image URLs needs fsspec: pip install 'starid-solver[dask]'") from None
     import tempfile
 
     suffix = "".join(Path(path.split("?")[0]).suffixes[-2:]) or ".img"

@@ -342,7 +342,7 @@ def plot(
     dpi: int = 120,
 ) -> None:
     """Write a PNG of full-sky Mollweide maps, one panel per selection (needs matplotlib:
-    ``pip install starid[plot]``).
+    ``pip install 'starid-solver[plot]'``).
 
     >>> import starid, starid.guide, tempfile, os
     >>> sel = {"rectangle": starid.guide.select(None, "rectangle")}
@@ -355,7 +355,7 @@ def plot(
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError("starid.guide.plot needs matplotlib: pip install 'starid[plot]'") from e
+        raise ImportError("starid.guide.plot needs matplotlib: pip install 'starid-solver[plot]'") from None
     if not selections:
         raise InvalidInputError("nothing to plot: pass at least one selection")
     n = len(selections)

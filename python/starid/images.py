@@ -89,14 +89,14 @@ class ImageIdentification:
         return wcs_header(self.identification, self.centroids.image_size, self.camera)
 
     def wcs(self) -> Any:
-        """The ``astropy.wcs.WCS`` of the identified image (``pip install starid[fits]``)."""
+        """The ``astropy.wcs.WCS`` of the identified image (``pip install 'starid-solver[fits]'``)."""
         from .wcs import wcs
 
         return wcs(self.identification, self.centroids.image_size, self.camera)
 
     def plot(self, image: Union[npt.ArrayLike, PathLike], path: Optional[PathLike] = None, *, catalog: CatalogLike = None, dpi: int = 100) -> Any:
         """The image annotated with this identification (see :func:`starid.plot.annotate`;
-        ``pip install starid[plot]``): saved as a PNG of the image's size at ``path`` when given;
+        ``pip install 'starid-solver[plot]'``): saved as a PNG of the image's size at ``path`` when given;
         returns the matplotlib figure."""
         from .plot import annotate
 

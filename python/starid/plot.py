@@ -1,4 +1,4 @@
-"""Pictures out: an image annotated with its identification (``pip install starid[plot]``).
+"""Pictures out: an image annotated with its identification (``pip install 'starid-solver[plot]'``).
 
 Each spot circled (identified stars with their catalogue id and magnitude, unidentified spots
 in another colour), the boresight, arrows to celestial north and east, and a caption with the
@@ -91,7 +91,7 @@ def annotate(
         import matplotlib.pyplot as plt
         from matplotlib.patches import Circle
     except ImportError as e:
-        raise ImportError("starid.plot needs matplotlib: pip install 'starid[plot]'") from e
+        raise ImportError("starid.plot needs matplotlib: pip install 'starid-solver[plot]'") from None
     from .images import ImageIdentification, _load
 
     img = _load(image)

@@ -1,4 +1,4 @@
-"""FITS WCS out: place an identified image on the sky (``pip install starid[fits]``).
+"""FITS WCS out: place an identified image on the sky (``pip install 'starid-solver[fits]'``).
 
 The TAN projection of the identified attitude and focal length. FITS counts pixels from 1 at
 the centre of the first pixel, starid from 0 at its corner, so FITS ``(X, Y) = (x + 0.5,
@@ -124,5 +124,5 @@ def wcs(solution: Any, image_size: tuple[float, float], camera: Optional[Any] = 
         from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
         from astropy.wcs import WCS  # type: ignore[import-untyped,import-not-found,unused-ignore]
     except ImportError as e:
-        raise ImportError("a WCS object needs astropy: pip install 'starid[fits]'") from e
+        raise ImportError("a WCS object needs astropy: pip install 'starid-solver[fits]'") from None
     return WCS(fits.Header(wcs_header(solution, image_size, camera)))
