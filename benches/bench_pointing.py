@@ -1,4 +1,4 @@
-"""Pointing and focal length: the issue's targets, measured.
+"""Pointing and focal length, measured against their targets.
 
     python benches/bench_pointing.py [--trials 2000] [--frames 1000] [--catalog CAT]
 

@@ -1,6 +1,6 @@
 """Fuzzing the public functions: whatever the arguments, a clear exception or a result, never a
 Rust panic (``PanicException``) and never a hang. Example counts follow the hypothesis profile
-(50 in CI; 10 000 a function in the nightly profile, the reliability issue's fuzz run)."""
+(50 in CI; 10 000 a function in the nightly profile)."""
 
 from __future__ import annotations
 

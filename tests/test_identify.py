@@ -111,7 +111,7 @@ def test_index_info(contest: starid.Catalog) -> None:
 
 
 def test_bundled_indexes_fit_in_8_mb() -> None:
-    # Issue 11's budget: every index a 12-degree solver of the bundled catalogue keeps, the
+    # The memory budget: every index a 12-degree solver of the bundled catalogue keeps, the
     # magnitude-split one included.
     info = starid.Catalog.default().index_info(12.0, (512, 512), magnitude_index=True)
     assert info["magnitude_index_bytes"] > 0

@@ -1,5 +1,5 @@
 //! k-vector pair index: build time (the pair index alone, and every index a solver keeps for a
-//! camera with magnitudes: the "build ≤ 100 ms") and range-query throughput.
+//! camera with magnitudes: the target is 100 ms) and range-query throughput.
 
 use std::hint::black_box;
 

@@ -1,4 +1,4 @@
-//! The peer benchmark's five scenarios (issue 5) in pure Rust: frames simulated from the bundled
+//! The peer benchmark's five scenarios in pure Rust: frames simulated from the bundled
 //! catalogue with 0.1 mag magnitude noise, identified with their magnitudes, single thread.
 //! Same truth rule as `benches/peers/bench_peers.py`: identified = boresight within 0.1° of the
 //! truth, wrong = a solution farther off, frames with fewer than 3 real stars count as failures.

@@ -1,4 +1,4 @@
-//! Tracking measurements (the tracking issue's targets), bundled catalogue, single thread:
+//! Tracking measurements against their targets, bundled catalogue, single thread:
 //!
 //! 1. Hinted identification of 12°/512 px frames (mag 6, 0.2 px, magnitudes) from a hint up to
 //!    1° off with a 1° uncertainty, against lost in space on the same frames: medians, p99.

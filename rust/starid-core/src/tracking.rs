@@ -72,7 +72,7 @@ pub struct TrackerConfig {
     /// satellite) on a star too faint to be seen, which no position test can tell from it, does
     /// not return in the next frame; a real star does. Stars entering the field are named at
     /// once. Off by default: on 2 450 simulated frames with 0–40 false spots
-    /// (`examples/tracking.rs -- 50 500`, stop 30) it leaves 2 wrong ids, as the default rules
+    /// (`examples/tracking.rs -- 50 500`) it leaves 2 wrong ids, as the default rules
     /// do, and names 0.46 % fewer of the real stars (96.52 % against 96.98 %); with neither rule,
     /// 9 wrong ids and 97.01 %.
     pub confirm_new_stars: bool,
@@ -113,8 +113,8 @@ pub const CONFIRM_NEVER_NAMED_FRAMES: u32 = 3;
 /// Distance from the sensor's edges within which a star of the last solution's field counts
 /// as entering the field, and is never counted unseen (see
 /// [`TrackerConfig::confirm_new_stars`], [`TrackerConfig::confirm_unseen_frames`]): an
-/// extractor's window a few pixels wide may miss a star closer to the edge. It was 8 px until
-/// stop 30; on the three sets of sequences of [`CONFIRM_NEVER_NAMED_FRAMES`] 4 px gave 14 wrong
+/// extractor's window a few pixels wide may miss a star closer to the edge. Against 8 px, on
+/// the three sets of sequences of [`CONFIRM_NEVER_NAMED_FRAMES`] 4 px gave 14 wrong
 /// ids instead of 16 for 2 fewer real stars named (2 px: 13, for 6), false spots on faint stars
 /// that sat between 4 and 8 px from an edge.
 pub const CONFIRM_MARGIN_PX: f64 = 4.0;

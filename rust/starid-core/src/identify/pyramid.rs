@@ -567,7 +567,7 @@ const RULE_OUT_FROM_TRIANGLES: usize = 4;
 /// that many triangles without meeting one of them (see [`RuleOut`]).
 pub const RULE_OUT_CHANCE: f64 = 1e-3;
 
-/// When an ungated Pyramid pass gives up (the "give up early and cheaply"). Every
+/// When an ungated Pyramid pass gives up (early and cheaply). Every
 /// hypothesis tried raises the number of matches `m` a solution needs to pass the false-match
 /// bound (with the sparsest fields' density and the step's smallest match radius, so never more
 /// than a real solution needs). A frame with that many matches has at least `m − 1` real stars
