@@ -84,6 +84,11 @@ def main() -> None:
         "unknown field": lambda: starid.identify(crowd, image_size=SIZE, timeout_s=limit),
         "field range": lambda: starid.identify(crowd, image_size=SIZE, fov_range_deg=(8.0, 16.0), timeout_s=limit),
     }
+    for method in starid.METHODS:
+        if method != "auto":
+            timed[f"known camera, method {method}"] = (
+                lambda m=method: starid.identify(crowd, fov_deg=12.0, image_size=SIZE, method=m, timeout_s=limit)
+            )
     for name, call in timed.items():
         for k in range(args.repeat):
             t0 = time.perf_counter()
