@@ -294,6 +294,7 @@ def identify(
     hint_fallback: bool = True,
     config: Optional[Any] = None,
     mag_offset: Optional[float] = _UNSET,
+    pixel_origin: str = "corner",
     **settings: Any,
 ) -> Identification:
     """Identify the stars of one frame (lost in space: no prior attitude).
@@ -371,6 +372,11 @@ def identify(
         point is searched without the gate by itself. ``None`` says the zero point is unknown:
         only the brightness order is used, and frames where false stars outnumber real ones
         are rarely identified.
+    pixel_origin : {"corner", "center"}
+        Where ``xy``'s pixel coordinates start. ``"corner"`` (starid's, the default): the first
+        pixel spans 0 to 1, its centre at 0.5. ``"center"``: the first pixel's centre at 0, as
+        sep, photutils and astropy give centroids; half a pixel is added to x and y, and the
+        result's ``xy`` and table are in starid's convention.
     mag_tolerance : float
         Largest difference (after ``mag_offset``) between a centroid's magnitude and its
         catalogue star's in the magnitude-gated search (default 0.5 mag).
@@ -427,6 +433,8 @@ def identify(
     >>> res.ok, round(res.fov_deg, 2)
     (True, 17.3)
     """
+    if pixel_origin != "corner":
+        xy = _from_pixel_origin(xy, pixel_origin)
     # The common call (float64 arrays, a known camera) in one native step; any other form comes
     # back NotImplemented and takes the path below, which converts, checks or reads it.
     # The camera, catalogue and settings of the most common call are looked up inline (each
@@ -491,6 +499,23 @@ def identify(
     return _starid.identify(cat._native, a, m, cam, cfg)
 
 
+#: What ``pixel_origin`` may say: starid's convention, and that of sep, photutils and astropy.
+PIXEL_ORIGINS = ("corner", "center")
+
+
+def _from_pixel_origin(xy: Any, pixel_origin: Any) -> Any:
+    """Centroids in starid's pixels (the first pixel spans 0 to 1, its centre at 0.5) from
+    ``pixel_origin="center"`` ones (sep, photutils and astropy put the first pixel's centre at
+    0): exactly half a pixel added to x and y."""
+    if pixel_origin not in PIXEL_ORIGINS:
+        raise InvalidInputError(f"pixel_origin must be one of {PIXEL_ORIGINS}, got {pixel_origin!r}")
+    if pixel_origin == "corner":
+        return xy
+    if _is_image(xy):
+        raise InvalidInputError("pixel_origin is for centroids given as numbers; an image's spots are starid's own")
+    return _xy(xy) + 0.5
+
+
 def _positive(name: str, value: Any) -> float:
     v = _number(name, value)
     if not (math.isfinite(v) and v > 0):
@@ -547,6 +572,7 @@ def identify_many(
     threads: Optional[int] = None,
     config: Optional[Any] = None,
     mag_offset: Optional[float] = _UNSET,
+    pixel_origin: str = "corner",
     **settings: Any,
 ) -> list[Identification]:
     """Identify many frames of one camera in parallel (Rust threads, GIL released).
@@ -587,6 +613,8 @@ def identify_many(
         raise InvalidInputError(
             f"frames must be a sequence of frames (a list of (N, 2) arrays or of images), got {type(frames).__name__}"
         )
+    if pixel_origin != "corner":
+        frames = [_from_pixel_origin(f, pixel_origin) for f in frames]
     if len(frames) > 0 and _is_image(frames[0]):
         if magnitudes is not None:
             raise InvalidInputError("images' magnitudes come from their spots: do not pass magnitudes=")
@@ -770,7 +798,8 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    state = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, [nan, nan, 0.0, nan, nan, nan, nan, 0.0], 0, "auto", message, (False, False, None))
+    floats = [nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan]
+    state: tuple[Any, ...] = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, floats, 0, "auto", message, (False, False, None, ([], None, [])))
     return Identification._from_state(state)
 
 

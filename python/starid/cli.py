@@ -73,6 +73,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="write the image annotated with its identification as a PNG (one image file; needs matplotlib)")
     ident.add_argument("--wcs", type=Path, metavar="OUT",
                        help="write the FITS WCS header of the solution here, as solve-field does (one file; needs astropy)")
+    ident.add_argument("--corr", type=Path, metavar="OUT",
+                       help="write the matched stars here, one row per named spot, as solve-field's .corr: CSV, or a FITS "
+                            "table for a .fits/.fit/.corr name (one file; FITS needs astropy)")
 
     sim = sub.add_parser("simulate", help="write a simulated star list (label,x,y,mag) and print its truth")
     sim.add_argument("output", type=Path)
@@ -193,6 +196,33 @@ def _write_wcs(out: Path, res: Identification, size: Optional[tuple[float, float
     _wrote(write_atomically(out, lambda tmp: hdu.writeto(tmp, overwrite=True)))
 
 
+def _write_corr(out: Path, res: Identification) -> None:
+    """The matched stars, one row per named spot (the per-spot table's rows with a catalogue
+    id): CSV, or a FITS binary table for a .fits/.fit/.corr name, as solve-field's .corr file.
+    x and y are starid's pixels (the first pixel's centre at 0.5); FITS pixels are x + 0.5."""
+    rows = res.table()
+    rows = rows[rows["catalog_id"] >= 0]
+    if out.suffix.lower() in (".fits", ".fit", ".corr"):
+        try:
+            from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
+        except ImportError:
+            raise ImportError("a FITS --corr file needs astropy: pip install 'starid-solver[fits]'") from None
+        hdu = fits.BinTableHDU(rows, name="CORR")
+        _wrote(write_atomically(out, lambda tmp: hdu.writeto(tmp, overwrite=True)))
+        return
+
+    names = list(rows.dtype.names or ())
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            w = csv.writer(f, lineterminator="\n")
+            w.writerow(names)
+            for r in rows:
+                w.writerow([int(v) if k == "catalog_id" else repr(float(v)) for k, v in zip(names, r)])
+
+    _wrote(write_atomically(out, write))
+
+
 def _wrote(path: Path) -> None:
     """Say which file was written (on stderr: stdout carries the results)."""
     print(f"wrote {path}", file=sys.stderr)
@@ -240,9 +270,10 @@ def _identify(args: argparse.Namespace) -> int:
     if not files:
         print("starid identify: give star-list files or --example", file=sys.stderr)
         return 2
-    if args.wcs is not None and len(files) != 1:
-        print("starid identify: --wcs takes one file", file=sys.stderr)
-        return 2
+    for option, value in (("--wcs", args.wcs), ("--corr", args.corr)):
+        if value is not None and len(files) != 1:
+            print(f"starid identify: {option} takes one file", file=sys.stderr)
+            return 2
     images = {k for k, f in enumerate(files) if _is_image_file(f)}
     if args.annotate is not None and (len(files) != 1 or not images):
         print("starid identify: --annotate takes one image file", file=sys.stderr)
@@ -250,7 +281,7 @@ def _identify(args: argparse.Namespace) -> int:
     if size is None and len(images) < len(files):
         print("starid identify: --size is required for star lists (images give their own)", file=sys.stderr)
         return 2
-    _refuse_overwriting([args.wcs, args.annotate], [*files, args.catalog])
+    _refuse_overwriting([args.wcs, args.annotate, args.corr], [*files, args.catalog])
     fov_range = None if args.fov_range_deg is None else tuple(sorted(args.fov_range_deg))
     catalog = resolve_catalog(args.catalog)
     results: list[dict[str, Any]] = []
@@ -344,6 +375,8 @@ def _identify(args: argparse.Namespace) -> int:
         failures += not res.ok
         if args.wcs is not None and res.ok:
             _write_wcs(args.wcs, res, sizes.get(n, size))
+        if args.corr is not None and res.ok:
+            _write_corr(args.corr, res)
         if args.annotate is not None:
             from .plot import annotate
 
@@ -353,6 +386,8 @@ def _identify(args: argparse.Namespace) -> int:
             d = res.to_dict()
             d["file"] = str(path)
             d["labels"] = stars.labels
+            d["x"] = [float(v) for v in stars.xy[:, 0]]
+            d["y"] = [float(v) for v in stars.xy[:, 1]]
             results.append(d)
         elif not show_progress:  # with a progress bar, only the summary is printed
             print(f"== {path}  ({len(stars.labels)} centroids)")

@@ -43,7 +43,14 @@ def _camera_terms(solution: Any, camera: Any, w: float, h: float) -> tuple[float
         k1 = getattr(solution, "k1", camera.k1) if math.isfinite(getattr(solution, "focal_sigma_px", math.nan)) else camera.k1
         # A mirrored frame is seen by the camera with x reversed (x -> W - x).
         return float(f), float(w - cx if solution.mirrored else cx), float(cy), float(k1)
-    return float(solution.focal_px), w / 2, h / 2, float(getattr(solution, "k1", 0.0))
+    # An identification knows its camera's principal point (the sensor centre unless a camera
+    # said otherwise).
+    cx, cy = getattr(solution, "principal_point", (math.nan, math.nan))
+    if not (math.isfinite(cx) and math.isfinite(cy)):
+        cx, cy = w / 2, h / 2
+    elif solution.mirrored:
+        cx = w - cx
+    return float(solution.focal_px), float(cx), float(cy), float(getattr(solution, "k1", 0.0))
 
 
 def wcs_header(solution: Any, image_size: tuple[float, float], camera: Optional[Any] = None) -> dict[str, Any]:

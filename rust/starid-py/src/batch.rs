@@ -150,17 +150,24 @@ fn invalid(i: usize, n: usize, message: &str) -> Identification {
     Identification::invalid_input(n, format!("frame {i}: {message}"))
 }
 
-/// Python results of core results, each with the camera it was identified with.
+/// Python results of core results, each with the camera it was identified with and the spots
+/// of its frame.
 fn results<'py>(
     py: Python<'py>,
     catalog: &Bound<'py, PyCatalog>,
     out: Vec<(Identification, Camera, f64)>,
+    frames: Vec<std::result::Result<Frame, String>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let cat = catalog.get();
     PyList::new(
         py,
-        out.iter()
-            .map(|(id, cam, sigma)| PyIdentification::new(cat, id, cam, *sigma)),
+        out.iter().zip(frames).map(|((id, cam, sigma), f)| {
+            let r = PyIdentification::new(cat, id, cam, *sigma);
+            match f {
+                Ok((xy, m)) => r.with_spots(xy, m),
+                Err(_) => r,
+            }
+        }),
     )
 }
 
@@ -227,7 +234,7 @@ pub fn identify_hinted_many<'py>(
         })
     })?
     .map_err(PyStaridError)?;
-    results(py, catalog, out)
+    results(py, catalog, out, frames)
 }
 
 /// Frames of one sensor whose field of view lies in `[fov_lo_deg, fov_hi_deg]`, in parallel; a
@@ -280,5 +287,5 @@ pub fn identify_unknown_fov_many<'py>(
         })
     })?
     .map_err(PyStaridError)?;
-    results(py, catalog, out)
+    results(py, catalog, out, frames)
 }

@@ -318,10 +318,12 @@ fn identify_frame_of(
     config: &Bound<'_, PyIdentifyConfig>,
 ) -> PyResult<PyIdentification> {
     let (cam, solver, cfg) = frame_setup(py, catalog, camera, config)?;
-    let id = run_core(py, move || {
-        solver.identify(&centroids, mags.as_deref(), &cam, &cfg)
+    let (id, centroids, mags) = run_core(py, move || {
+        solver
+            .identify(&centroids, mags.as_deref(), &cam, &cfg)
+            .map(|id| (id, centroids, mags))
     })?;
-    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN))
+    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN).with_spots(centroids, mags))
 }
 
 /// `identify`'s common call in one native step: centroids as a float64 (N, 2) array,
@@ -465,11 +467,17 @@ fn identify_many<'py>(
     })?
     .map_err(PyStaridError)?;
     let cat = catalog.get();
-    let out = results.iter().enumerate().map(|(i, id)| {
-        let mut r = PyIdentification::new(cat, id, &cam, f64::NAN);
-        r.name_frame(i);
-        r
-    });
+    drop(refs);
+    let out = results
+        .iter()
+        .zip(frames)
+        .zip(mags)
+        .enumerate()
+        .map(|(i, ((id, xy), m))| {
+            let mut r = PyIdentification::new(cat, id, &cam, f64::NAN).with_spots(xy, m);
+            r.name_frame(i);
+            r
+        });
     Ok(PyList::new(py, out)?.into_any().unbind())
 }
 

@@ -1,7 +1,7 @@
 //! Core results → Python: the native `Identification` class, and dicts of plain values and numpy
 //! arrays (moved, not copied) for simulated frames and pointing fits.
 
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use nalgebra::Rotation3;
 use numpy::ndarray::Array2;
@@ -14,7 +14,7 @@ use starid_core::{geometry, Camera, Catalog, Identification, SimFrame, Status};
 
 const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
-use starid_core::geometry::quaternion_wxyz;
+use starid_core::geometry::{quaternion_wxyz, unit_to_radec};
 
 /// A rotation's 3×3 matrix as an ndarray.
 fn matrix3(r: &Rotation3<f64>) -> Array2<f64> {
@@ -138,6 +138,45 @@ pub struct PyIdentification {
     residuals_array: PyOnceLock<Py<PyArray1<f64>>>,
     /// `(ra, dec, roll)` in degrees, computed on the first read of any of them.
     radec_roll: OnceLock<(f64, f64, f64)>,
+    /// The spots and their stars: the per-spot table.
+    spots: Spots,
+    /// The sensor's width and height and the principal point, pixels (NaN when unknown).
+    sensor: [f64; 4],
+}
+
+/// The spots a result was identified from, and the catalogue its ids name: what the per-spot
+/// table (`Identification.table()`) reads.
+#[derive(Default)]
+struct Spots {
+    xy: Vec<[f64; 2]>,
+    magnitudes: Option<Vec<f64>>,
+    catalog: Option<Arc<Catalog>>,
+    index: Vec<Option<u32>>,
+    /// `[ra_deg, dec_deg, mag]` of each spot's star, NaN where unnamed: made on first use (or
+    /// restored by unpickling, without the catalogue).
+    stars: OnceLock<Vec<[f64; 3]>>,
+}
+
+impl Spots {
+    fn stars(&self, n: usize) -> &[[f64; 3]] {
+        self.stars.get_or_init(|| {
+            let nan = [f64::NAN; 3];
+            let Some(cat) = &self.catalog else {
+                return vec![nan; n];
+            };
+            self.index
+                .iter()
+                .map(|c| {
+                    c.map_or(nan, |c| {
+                        let c = c as usize;
+                        let (ra, dec) = unit_to_radec(&cat.vectors()[c]);
+                        let ra = ra.to_degrees().rem_euclid(360.0);
+                        [ra, dec.to_degrees(), cat.mag()[c]]
+                    })
+                })
+                .collect()
+        })
+    }
 }
 
 impl PyIdentification {
@@ -200,7 +239,26 @@ impl PyIdentification {
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
             radec_roll: OnceLock::new(),
+            spots: Spots {
+                catalog: Some(catalog.inner.clone()),
+                index: id.catalog_index.clone(),
+                ..Spots::default()
+            },
+            sensor: [
+                camera.width_px,
+                camera.height_px,
+                camera.principal_point_px[0],
+                camera.principal_point_px[1],
+            ],
         }
+    }
+
+    /// The same result, keeping the spots it was identified from (their pixel positions and
+    /// magnitudes, for the per-spot table).
+    pub fn with_spots(mut self, xy: Vec<[f64; 2]>, magnitudes: Option<Vec<f64>>) -> Self {
+        self.spots.xy = xy;
+        self.spots.magnitudes = magnitudes;
+        self
     }
 
     fn radec_roll_deg(&self) -> (f64, f64, f64) {
@@ -215,6 +273,13 @@ impl PyIdentification {
     }
 }
 
+/// Three float columns, one value a spot.
+type Columns3<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
 /// The plain values of an [`PyIdentification`], for pickling.
 type State = (
     String,
@@ -224,12 +289,15 @@ type State = (
     bool,
     f64,
     usize,
-    [f64; 8],
+    [f64; 12],
     usize,
     String,
     Option<String>,
-    (bool, bool, Option<String>),
+    (bool, bool, Option<String>, SpotState),
 );
+
+/// The spots of a pickled result: centroids, magnitudes, and each spot's star (ra, dec, mag).
+type SpotState = (Vec<[f64; 2]>, Option<Vec<f64>>, Vec<[f64; 3]>);
 
 /// NaN as None: JSON has no NaN.
 fn json_float(py: Python<'_>, v: f64) -> PyResult<Py<PyAny>> {
@@ -377,6 +445,91 @@ impl PyIdentification {
         self.k1
     }
 
+    /// The sensor's ``(width, height)`` in pixels (NaN for a result that does not know it).
+    #[getter]
+    fn image_size(&self) -> (f64, f64) {
+        (self.sensor[0], self.sensor[1])
+    }
+
+    /// The camera's principal point ``(x, y)`` in pixels (the sensor centre unless the camera
+    /// said otherwise).
+    #[getter]
+    fn principal_point(&self) -> (f64, f64) {
+        (self.sensor[2], self.sensor[3])
+    }
+
+    /// The FITS WCS keywords of the solution (TAN, or TAN-SIP with lens distortion), as a dict:
+    /// see :func:`starid.wcs.wcs_header`.
+    fn wcs_header<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let me = slf.get();
+        slf.py()
+            .import("starid.wcs")?
+            .call_method1("wcs_header", (slf, (me.sensor[0], me.sensor[1])))
+    }
+
+    /// The solution's ``astropy.wcs.WCS`` (``pip install "starid-solver[fits]"``).
+    fn wcs<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let me = slf.get();
+        slf.py()
+            .import("starid.wcs")?
+            .call_method1("wcs", (slf, (me.sensor[0], me.sensor[1])))
+    }
+
+    /// The spots' pixel positions (N, 2), as they were given (the extractor's for an image);
+    /// empty (0, 2) for a result that does not know them.
+    #[getter]
+    fn xy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let xy = &self.spots.xy;
+        Ok(Array2::from_shape_fn((xy.len(), 2), |(i, j)| xy[i][j]).into_pyarray(py))
+    }
+
+    /// The spots' magnitudes as they were given (an image's are instrumental), or None.
+    #[getter]
+    fn magnitudes<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.spots
+            .magnitudes
+            .as_ref()
+            .map(|m| m.clone().into_pyarray(py))
+    }
+
+    /// `(ra_deg, dec_deg, mag)` arrays of each spot's catalogue star, NaN where unnamed.
+    fn _star_columns<'py>(&self, py: Python<'py>) -> Columns3<'py> {
+        let stars = self.spots.stars(self.ids.len());
+        let col = |k: usize| {
+            stars
+                .iter()
+                .map(|s| s[k])
+                .collect::<Vec<f64>>()
+                .into_pyarray(py)
+        };
+        (col(0), col(1), col(2))
+    }
+
+    /// One row per spot: ``x, y, catalog_id, ra_deg, dec_deg, catalog_mag, mag, residual_arcsec``
+    /// (catalogue columns NaN and id -1 where unnamed; ``mag`` the spot's own, NaN without
+    /// magnitudes), as a numpy structured array. Pixel positions follow starid's convention
+    /// (pixel centres at i + 0.5).
+    fn table<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        slf.py()
+            .import("starid._table")?
+            .call_method1("spot_table", (slf,))
+    }
+
+    /// :meth:`table` as a pandas DataFrame (``pip install pandas``).
+    fn to_pandas<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        slf.py()
+            .import("starid._table")?
+            .call_method1("to_pandas", (slf,))
+    }
+
+    /// :meth:`table` as an astropy Table with a ``coord`` SkyCoord column
+    /// (``pip install "starid-solver[fits]"``).
+    fn to_astropy<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        slf.py()
+            .import("starid._table")?
+            .call_method1("to_astropy", (slf,))
+    }
+
     /// Pickling (multiprocessing returns results this way): the plain values, rebuilt by
     /// `_from_state`.
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (State,))> {
@@ -398,11 +551,24 @@ impl PyIdentification {
                 me.focal_sigma_px,
                 me.learned_mag_offset.unwrap_or(f64::NAN),
                 me.k1,
+                me.sensor[0],
+                me.sensor[1],
+                me.sensor[2],
+                me.sensor[3],
             ],
             me.hypotheses,
             me.method.to_string(),
             me.message.clone(),
-            (me.hinted, me.verified, me.catalog.clone()),
+            (
+                me.hinted,
+                me.verified,
+                me.catalog.clone(),
+                (
+                    me.spots.xy.clone(),
+                    me.spots.magnitudes.clone(),
+                    me.spots.stars(me.ids.len()).to_vec(),
+                ),
+            ),
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
     }
@@ -421,7 +587,7 @@ impl PyIdentification {
             hypotheses,
             method,
             message,
-            (hinted, verified, catalog),
+            (hinted, verified, catalog, (xy, magnitudes, stars)),
         ) = state;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
@@ -453,7 +619,18 @@ impl PyIdentification {
         if ids.len() != residuals_arcsec.len() {
             return Err(PyValueError::new_err("ids and residuals differ in length"));
         }
-        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1] =
+        if !(xy.is_empty() || xy.len() == ids.len())
+            || magnitudes.as_ref().is_some_and(|m| m.len() != ids.len())
+            || !(stars.is_empty() || stars.len() == ids.len())
+        {
+            return Err(PyValueError::new_err("spots and ids differ in length"));
+        }
+        let stars = if stars.is_empty() {
+            vec![[f64::NAN; 3]; ids.len()]
+        } else {
+            stars
+        };
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy] =
             floats;
         Ok(Self {
             status,
@@ -480,6 +657,13 @@ impl PyIdentification {
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
             radec_roll: OnceLock::new(),
+            spots: Spots {
+                xy,
+                magnitudes,
+                stars: OnceLock::from(stars),
+                ..Spots::default()
+            },
+            sensor: [w, h, cx, cy],
         })
     }
 

@@ -91,10 +91,12 @@ pub(crate) fn identify_hinted_of(
     let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
     let (cam, solver, cfg) = crate::frame_setup(py, catalog, camera, config)?;
     let fb = fallback_of(fallback);
-    let id = run_core(py, move || {
-        solver.identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
+    let (id, centroids, mags) = run_core(py, move || {
+        solver
+            .identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
+            .map(|id| (id, centroids, mags))
     })?;
-    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN))
+    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN).with_spots(centroids, mags))
 }
 
 /// The core tracker with its solver and camera.
@@ -170,7 +172,8 @@ impl PyTracker {
         let catalog = self.catalog.bind(py);
         d.set_item(
             "identification",
-            PyIdentification::new(catalog.get(), &step.identification, &cam, f64::NAN),
+            PyIdentification::new(catalog.get(), &step.identification, &cam, f64::NAN)
+                .with_spots(centroids, mags),
         )?;
         d.set_item("mode", step.mode.as_str())?;
         d.set_item(
