@@ -65,6 +65,14 @@ def test_many_files_are_identified_in_batches(tmp_path, capsys) -> None:  # type
     out = capsys.readouterr().out
     assert out.count("== ") == 25
     assert "25/25 frames identified" in out
+    # On a terminal, a progress bar goes to stderr; the results still go to stdout, the same.
+    import sys
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sys.stderr, "isatty", lambda: True)
+        assert main(["identify", *paths, "--fov-deg", "12", "--size", "512x512"]) == 0
+    both = capsys.readouterr()
+    assert both.out.count("== ") == 25 and "25/25 frames" in both.err and "done in" in both.err
 
 
 def test_methods_and_method_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

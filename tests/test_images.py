@@ -65,7 +65,7 @@ def test_simulated_images_are_identified_end_to_end(bundled: starid.Catalog) -> 
         img, truth = starid.simulate_image(
             bundled, 12.0, (800, 600), seed=seed, hot_pixels=30, gradient_e=200.0, trail=(20, 500, 780, 420, 500)
         )
-        assert img.shape == (600, 800) and img.dtype == np.float32
+        assert img.shape == (600, 800) and img.dtype == np.uint16
         r = starid.identify_image(img, bundled, 12.0)
         assert r.ok, seed
         ids = r.identification.ids

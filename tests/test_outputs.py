@@ -125,3 +125,29 @@ def test_centroids_from_sep_or_photutils_go_in_with_their_origin(frame: starid.F
     assert np.array_equal(batch[0].ids, result.ids)
     with pytest.raises(starid.InvalidInputError, match="pixel_origin"):
         starid.identify(theirs, fov_deg=FOV, image_size=SIZE, pixel_origin="centre")
+
+
+@pytest.mark.parametrize("name", ["sim.png", "sim.tif", "sim.fits"])
+def test_simulate_writes_a_16_bit_image_that_solves(tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / name
+    assert main(["simulate", "--image", str(out), "--fov-deg", str(FOV), "--size", "640x480", "--seed", "5"]) == 0
+    truth = json.loads(capsys.readouterr().out)
+    img = starid.read_image(out)
+    assert img.dtype == np.uint16 and img.shape == (480, 640)
+    res = starid.identify(out, fov_deg=FOV)
+    assert res.ok and res.ra_deg == pytest.approx(truth["ra_deg"], abs=0.01)
+
+
+def test_version_and_readable_defaults(capsys: pytest.CaptureFixture[str]) -> None:
+    import inspect
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and starid.__version__ in capsys.readouterr().out
+    assert repr(inspect.signature(starid.identify).parameters["mag_offset"].default) == "0.0"
+    try:
+        starid.identify(np.zeros((5, 2)), fov_deg=FOV, image_size=SIZE, min_matches=2)
+    except starid.InvalidInputError as err:
+        assert err.__context__ is None or err.__suppress_context__
+    else:
+        pytest.fail("min_matches=2 was accepted")

@@ -196,7 +196,15 @@ Camera = _starid.Camera
 _DEFAULT_CONFIG = IdentifyConfig()
 _UNKNOWN_ZERO_POINT_CONFIG = IdentifyConfig(mag_offset=None)
 # identify()'s mag_offset when not given (None is a value: the zero point is unknown).
-_UNSET: Any = object()
+class _Default:
+    """``mag_offset``'s default: 0.0, the catalogue's system, unless ``config`` says otherwise
+    (so that a config's own ``mag_offset`` is not overridden by a keyword nobody gave)."""
+
+    def __repr__(self) -> str:
+        return "0.0"
+
+
+_UNSET: Any = _Default()
 _F64 = np.dtype(np.float64)
 _CAMERAS: dict[Any, Any] = {}
 
@@ -460,9 +468,11 @@ def identify(
             cfg = _config(config, settings if mag_offset is _UNSET else {**settings, "mag_offset": mag_offset})
         else:
             try:
-                cfg = _CONFIGS[tuple(settings.items())]
-            except (KeyError, TypeError):
-                cfg = _config(None, settings)
+                cached = _CONFIGS.get(tuple(settings.items()))
+            except TypeError:  # a setting's value cannot be a key
+                cached = None
+            # Built outside the handler, so that a refused setting's error chains to nothing.
+            cfg = _config(None, settings) if cached is None else cached
         res = _starid.identify_frame(
             cat._native, xy, magnitudes, cam, cfg, attitude_hint, hint_uncertainty_deg, hint_fallback
         )

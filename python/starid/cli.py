@@ -77,8 +77,11 @@ def _parser() -> argparse.ArgumentParser:
                        help="write the matched stars here, one row per named spot, as solve-field's .corr: CSV, or a FITS "
                             "table for a .fits/.fit/.corr name (one file; FITS needs astropy)")
 
-    sim = sub.add_parser("simulate", help="write a simulated star list (label,x,y,mag) and print its truth")
-    sim.add_argument("output", type=Path)
+    sim = sub.add_parser("simulate", help="write a simulated star list (label,x,y,mag) or image, and print its truth")
+    sim.add_argument("output", type=Path, nargs="?", help="the star list to write (CSV)")
+    sim.add_argument("--image", type=Path, metavar="OUT",
+                     help="render the frame as a 16-bit image instead: PNG or TIFF (Pillow), or FITS (astropy); "
+                          "it takes --fov-deg, --size, --seed, --mag-limit and --false-stars")
     sim.add_argument("--fov-deg", type=float, default=12.0)
     sim.add_argument("--size", type=_size, default=(512.0, 512.0))
     sim.add_argument("--catalog", type=Path)
@@ -168,18 +171,27 @@ def _table(labels: Sequence[str], res: Identification) -> str:
 BATCH = 256
 
 
-def _progress(done: int, total: int, identified: int, elapsed_s: float) -> None:
-    """A one-line progress bar on stderr."""
+def _progress(done: int, total: int, identified: Optional[int], elapsed_s: float, stage: str = "frames") -> None:
+    """A one-line progress bar with the rate and the time left, on stderr (results go to stdout)."""
     width = 30
     filled = int(width * done / max(total, 1))
     rate = done / elapsed_s if elapsed_s > 0 else 0.0
+    eta = (total - done) / rate if rate > 0 else float("nan")
+    count = "" if identified is None else f", {identified} identified"
     print(
-        f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} frames, {identified} identified, "
-        f"{rate:,.0f} frames/s",
+        f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {stage}{count}, {rate:,.0f}/s, "
+        f"{'ETA ' + _duration(eta) if done < total else 'done in ' + _duration(elapsed_s)}   ",
         end="" if done < total else "\n",
         file=sys.stderr,
         flush=True,
     )
+
+
+def _duration(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "?"
+    m, s = divmod(int(round(seconds)), 60)
+    return f"{m}:{s:02d}" if m < 60 else f"{m // 60}:{m % 60:02d}:{s:02d}"
 
 
 def _write_wcs(out: Path, res: Identification, size: Optional[tuple[float, float]]) -> None:
@@ -286,13 +298,16 @@ def _identify(args: argparse.Namespace) -> int:
     catalog = resolve_catalog(args.catalog)
     results: list[dict[str, Any]] = []
     failures = 0
-    show_progress = len(files) > 20 and not args.json and sys.stderr.isatty()
+    # A progress bar on a terminal's stderr for long runs; the results go to stdout all the same.
+    show_progress = len(files) > 20 and sys.stderr.isatty()
     t0 = time.perf_counter()
     # A file that cannot be read is reported (one line naming it) and the others go on.
     star_lists: list[Any] = []
     unreadable: dict[int, str] = {}
     sizes: dict[int, tuple[float, float]] = {}
     for k, path in enumerate(files):
+        if show_progress and (k % 10 == 9 or k == len(files) - 1) and images:
+            _progress(k + 1, len(files), None, time.perf_counter() - t0, "files read")
         try:
             stars, image_size = _read_spots(path)
             star_lists.append(stars)
@@ -389,7 +404,7 @@ def _identify(args: argparse.Namespace) -> int:
             d["x"] = [float(v) for v in stars.xy[:, 0]]
             d["y"] = [float(v) for v in stars.xy[:, 1]]
             results.append(d)
-        elif not show_progress:  # with a progress bar, only the summary is printed
+        else:
             print(f"== {path}  ({len(stars.labels)} centroids)")
             print(_table(stars.labels, res))
             if res.ok and res.quaternion is not None:
@@ -429,7 +444,12 @@ def _identify(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    _refuse_overwriting([args.output], [args.catalog])
+    if (args.output is None) == (args.image is None):
+        print("starid simulate: give a star list to write, or --image OUT", file=sys.stderr)
+        return 2
+    _refuse_overwriting([args.output, args.image], [args.catalog])
+    if args.image is not None:
+        return _simulate_image(args)
     frame = simulate(
         resolve_catalog(args.catalog),
         fov_deg=args.fov_deg,
@@ -460,6 +480,45 @@ def _simulate(args: argparse.Namespace) -> int:
         "roll_deg": frame.roll_deg,
         "mirrored": frame.mirrored,
         "true_ids": {f"s{i}": int(t) for i, t in enumerate(frame.true_ids)},
+    }
+    print(json.dumps(truth, indent=2))
+    return 0
+
+
+def _simulate_image(args: argparse.Namespace) -> int:
+    """``simulate --image OUT``: the rendered frame, 16-bit, as PNG/TIFF or FITS."""
+    from .images import simulate_image
+
+    if args.attitude_deg is not None or args.mirrored or args.drop_fraction or args.mag_noise:
+        raise InvalidInputError("--image takes --fov-deg, --size, --seed, --mag-limit and --false-stars only")
+    img, frame = simulate_image(
+        resolve_catalog(args.catalog), args.fov_deg, args.size, seed=0 if args.seed is None else args.seed,
+        mag_limit=6.0 if args.mag_limit is None else args.mag_limit, false_stars=args.false_stars,
+    )
+    out: Path = args.image
+    if out.name.lower().endswith((".fits", ".fit", ".fts")):
+        try:
+            from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
+        except ImportError:
+            raise ImportError("a FITS image needs astropy: pip install 'starid-solver[fits]'") from None
+        _wrote(write_atomically(out, lambda tmp: fits.PrimaryHDU(img).writeto(tmp, overwrite=True)))
+    elif out.suffix.lower() in (".png", ".tif", ".tiff"):
+        from PIL import Image
+
+        fmt = "PNG" if out.suffix.lower() == ".png" else "TIFF"
+        _wrote(write_atomically(out, lambda tmp: Image.fromarray(img).save(tmp, format=fmt)))
+    else:
+        raise InvalidInputError(f"{out}: an image name ends in .png, .tif, .tiff or .fits")
+    truth = {
+        "file": str(out),
+        "seed": frame.seed,
+        "ra_deg": frame.ra_deg,
+        "dec_deg": frame.dec_deg,
+        "roll_deg": frame.roll_deg,
+        "fov_deg": frame.fov_deg,
+        "stars": [
+            {"x": float(x), "y": float(y), "catalog_id": int(t)} for (x, y), t in zip(frame.xy, frame.true_ids)
+        ],
     }
     print(json.dumps(truth, indent=2))
     return 0
@@ -593,7 +652,7 @@ def _track(args: argparse.Namespace) -> int:
             return 2
         times = [k / args.frame_rate_hz for k in range(len(files))]
     tracker = Tracker(resolve_catalog(args.catalog), args.fov_deg, args.size, max_rate_deg_s=args.max_rate_deg_s)
-    show_progress = len(files) > 20 and not args.json and sys.stderr.isatty()
+    show_progress = len(files) > 20 and sys.stderr.isatty()
     t0 = time.perf_counter()
     failures = bad_input = identified = 0
     for k, (path, t) in enumerate(zip(files, times)):
@@ -617,7 +676,7 @@ def _track(args: argparse.Namespace) -> int:
             d.update(file=str(path), t_s=t, mode=step.mode, uncertainty_deg=None if step.uncertainty_deg != step.uncertainty_deg else step.uncertainty_deg,
                      rate_deg_s=None if step.rate_deg_s is None else [float(v) for v in step.rate_deg_s])
             print(json.dumps(d))
-        elif not show_progress:
+        else:
             att = f"RA {res.ra_deg:.4f} Dec {res.dec_deg:.4f} roll {res.roll_deg:.3f}" if res.ok else res.status
             print(f"{path}  t={t:.3f}s  {step.mode:<13}  {res.n_matched:>3} stars  {att}  {1e6 * res.time_s:.0f} us")
         if show_progress and (k % 50 == 49 or k == len(files) - 1):

@@ -329,12 +329,16 @@ def simulate_image(
     full_well_e: float = 60000.0,
     gain_e_per_dn: float = 1.0,
     bits: int = 16,
-) -> tuple[npt.NDArray[np.float32], Frame]:
+) -> tuple[npt.NDArray[Any], Frame]:
     """A simulated frame rendered to pixels, with its truth: pixel-integrated Gaussian PSFs
     (``psf_sigma_px``), a star of magnitude 0 giving ``zero_point_e`` electrons, sky
     ``background_e`` with a left-to-right ``gradient_e``, hot pixels, a satellite ``trail``
     ``(x0, y0, x1, y1, electrons per pixel)``, Poisson and read noise, saturation at
     ``full_well_e``, ``bits``-bit quantisation with ``gain_e_per_dn``.
+
+    The image holds the digital numbers a sensor gives: uint16 for 16 bits, uint8 for 8, so
+    that Pillow or astropy save it as it is (``PIL.Image.fromarray(img).save("frame.png")``
+    writes a 16-bit PNG).
     """
     cam = _camera(None, fov_deg, image_size)
     cat = resolve_catalog_for(catalog, cam)
@@ -348,7 +352,8 @@ def simulate_image(
     )
     w, h = cam.image_size
     frame: Frame = _frame(d, cam.fov_deg, (w, h), seed)
-    return img, frame
+    # The renderer's values are whole numbers within the bit depth: the integer type is exact.
+    return img.astype(np.uint8 if int(bits) == 8 else np.uint16), frame
 
 
 _is_image = _identify_module._is_image
