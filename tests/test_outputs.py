@@ -151,3 +151,22 @@ def test_version_and_readable_defaults(capsys: pytest.CaptureFixture[str]) -> No
         assert err.__context__ is None or err.__suppress_context__
     else:
         pytest.fail("min_matches=2 was accepted")
+
+
+def test_image_times_are_split_into_read_extract_identify(tmp_path: Path, result: starid.Identification,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    import math
+
+    out = tmp_path / "frame.png"
+    assert main(["simulate", "--image", str(out), "--size", "640x480", "--seed", "6"]) == 0
+    capsys.readouterr()
+    res = starid.identify(out, fov_deg=FOV)
+    assert res.read_s > 0 and res.extract_s > 0 and res.time_s > 0
+    batch = starid.identify_many([out, out], fov_deg=FOV)
+    assert all(r.read_s > 0 and r.extract_s > 0 for r in batch)
+    assert math.isnan(result.read_s) and math.isnan(result.extract_s)  # centroids given
+    back = pickle.loads(pickle.dumps(res))
+    assert back.read_s == res.read_s and back.extract_s == res.extract_s
+    assert main(["identify", str(out), "--fov-deg", str(FOV)]) == 0
+    line = [s for s in capsys.readouterr().out.splitlines() if s.startswith("time:")][0]
+    assert "read" in line and "extract" in line and "identify" in line

@@ -756,7 +756,7 @@ def _image_batch(
         for i, r in zip(idx, batch):
             if r.status == "invalid_input":
                 r = _invalid(named(i, r.message), len(r.ids))
-            results[i] = r
+            results[i] = r._with_times(found[i].read_s, found[i].extract_s)
     return cast(list[Identification], results)
 
 
@@ -808,7 +808,7 @@ def _unknown_fov_batch(
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    floats = [nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan]
+    floats = [nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan, nan, nan]
     state: tuple[Any, ...] = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, floats, 0, "auto", message, (False, False, None, ([], None, [])))
     return Identification._from_state(state)
 

@@ -256,15 +256,17 @@ def _is_image_file(path: Path) -> bool:
     return path.name.lower().endswith(_IMAGE_SUFFIXES)
 
 
-def _read_spots(path: Path) -> tuple[StarList, Optional[tuple[float, float]]]:
-    """The spots of a star list, or of an image with its size; ValueError naming the file when
-    it cannot be read."""
+def _read_spots(path: Path) -> tuple[StarList, Optional[tuple[float, float]], tuple[float, float]]:
+    """The spots of a star list, or of an image with its size, and the seconds spent reading and
+    extracting them; ValueError naming the file when it cannot be read."""
     try:
         if _is_image_file(path):
             c = extract_centroids(path)
             mags = c.magnitudes if np.isfinite(c.magnitudes).all() else None
-            return StarList([f"s{i}" for i in range(len(c))], c.xy, mags), c.image_size
-        return read_star_list(path), None
+            return StarList([f"s{i}" for i in range(len(c))], c.xy, mags), c.image_size, (c.read_s, c.extract_s)
+        t0 = time.perf_counter()
+        stars = read_star_list(path)
+        return stars, None, (time.perf_counter() - t0, 0.0)
     except UnicodeDecodeError as e:
         raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
     except (ValueError, OSError, ImportError) as e:
@@ -305,11 +307,12 @@ def _identify(args: argparse.Namespace) -> int:
     star_lists: list[Any] = []
     unreadable: dict[int, str] = {}
     sizes: dict[int, tuple[float, float]] = {}
+    times: dict[int, tuple[float, float]] = {}
     for k, path in enumerate(files):
         if show_progress and (k % 10 == 9 or k == len(files) - 1) and images:
             _progress(k + 1, len(files), None, time.perf_counter() - t0, "files read")
         try:
-            stars, image_size = _read_spots(path)
+            stars, image_size, times[k] = _read_spots(path)
             star_lists.append(stars)
             if image_size is not None:
                 sizes[k] = image_size
@@ -403,6 +406,7 @@ def _identify(args: argparse.Namespace) -> int:
             d["labels"] = stars.labels
             d["x"] = [float(v) for v in stars.xy[:, 0]]
             d["y"] = [float(v) for v in stars.xy[:, 1]]
+            d["read_s"], d["extract_s"] = times[n]
             results.append(d)
         else:
             print(f"== {path}  ({len(stars.labels)} centroids)")
@@ -433,7 +437,12 @@ def _identify(args: argparse.Namespace) -> int:
                 )
             else:
                 print(f"not identified ({res.status})")
-            print(f"time: {res.time_s * 1e3:.3f} ms\n")
+            read_s, extract_s = times[n]
+            print(
+                f"time: read {read_s * 1e3:.3f} ms"
+                + (f", extract {extract_s * 1e3:.3f} ms" if n in images else "")
+                + f", identify {res.time_s * 1e3:.3f} ms\n"
+            )
     if args.json:
         json.dump(results if len(results) != 1 else results[0], sys.stdout, indent=2)
         print()
@@ -659,7 +668,7 @@ def _track(args: argparse.Namespace) -> int:
         # A file that cannot be read, or a frame the tracker refuses (a spot off the sensor, a
         # time that is not a number), is reported naming it, and the frames after it go on.
         try:
-            stars, _ = _read_spots(path)
+            stars, _, _ = _read_spots(path)
             step = tracker.update(stars.xy, t, magnitudes=None if args.no_magnitudes else stars.magnitudes)
         except ValueError as e:
             msg = str(e)

@@ -142,6 +142,8 @@ pub struct PyIdentification {
     spots: Spots,
     /// The sensor's width and height and the principal point, pixels (NaN when unknown).
     sensor: [f64; 4],
+    /// Seconds spent reading the image and extracting its spots (NaN for centroids given).
+    read_extract_s: [f64; 2],
 }
 
 /// The spots a result was identified from, and the catalogue its ids name: what the per-spot
@@ -250,6 +252,7 @@ impl PyIdentification {
                 camera.principal_point_px[0],
                 camera.principal_point_px[1],
             ],
+            read_extract_s: [f64::NAN; 2],
         }
     }
 
@@ -289,7 +292,7 @@ type State = (
     bool,
     f64,
     usize,
-    [f64; 12],
+    [f64; 14],
     usize,
     String,
     Option<String>,
@@ -445,6 +448,63 @@ impl PyIdentification {
         self.k1
     }
 
+    /// Seconds spent reading the image file (NaN for centroids or an array given).
+    #[getter]
+    fn read_s(&self) -> f64 {
+        self.read_extract_s[0]
+    }
+
+    /// Seconds spent extracting the image's spots (NaN for centroids given). ``time_s`` is the
+    /// identification's own time.
+    #[getter]
+    fn extract_s(&self) -> f64 {
+        self.read_extract_s[1]
+    }
+
+    /// The same result with the image's read and extraction times.
+    fn _with_times(&self, read_s: f64, extract_s: f64) -> Self {
+        Self {
+            status: self.status,
+            method: self.method,
+            message: self.message.clone(),
+            hinted: self.hinted,
+            verified: self.verified,
+            catalog: self.catalog.clone(),
+            ids: self.ids.clone(),
+            residuals_arcsec: self.residuals_arcsec.clone(),
+            rotation: self.rotation,
+            mirrored: self.mirrored,
+            false_match_probability: self.false_match_probability,
+            n_matched: self.n_matched,
+            centroid_sigma_px: self.centroid_sigma_px,
+            match_radius_arcsec: self.match_radius_arcsec,
+            hypotheses: self.hypotheses,
+            time_s: self.time_s,
+            fov_deg: self.fov_deg,
+            focal_px: self.focal_px,
+            focal_sigma_px: self.focal_sigma_px,
+            learned_mag_offset: self.learned_mag_offset,
+            k1: self.k1,
+            ids_array: PyOnceLock::new(),
+            residuals_array: PyOnceLock::new(),
+            radec_roll: OnceLock::new(),
+            spots: Spots {
+                xy: self.spots.xy.clone(),
+                magnitudes: self.spots.magnitudes.clone(),
+                catalog: self.spots.catalog.clone(),
+                index: self.spots.index.clone(),
+                stars: self
+                    .spots
+                    .stars
+                    .get()
+                    .cloned()
+                    .map_or_else(OnceLock::new, OnceLock::from),
+            },
+            sensor: self.sensor,
+            read_extract_s: [read_s, extract_s],
+        }
+    }
+
     /// The sensor's ``(width, height)`` in pixels (NaN for a result that does not know it).
     #[getter]
     fn image_size(&self) -> (f64, f64) {
@@ -555,6 +615,8 @@ impl PyIdentification {
                 me.sensor[1],
                 me.sensor[2],
                 me.sensor[3],
+                me.read_extract_s[0],
+                me.read_extract_s[1],
             ],
             me.hypotheses,
             me.method.to_string(),
@@ -630,7 +692,7 @@ impl PyIdentification {
         } else {
             stars
         };
-        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy] =
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy, read_s, extract_s] =
             floats;
         Ok(Self {
             status,
@@ -664,6 +726,7 @@ impl PyIdentification {
                 ..Spots::default()
             },
             sensor: [w, h, cx, cy],
+            read_extract_s: [read_s, extract_s],
         })
     }
 
