@@ -3,6 +3,9 @@
 //! point across its frames, is [`Solver::identify_batch_until`](super::Solver::identify_batch_until)).
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use super::*;
 
 use crate::error::{Error, Result};
 
@@ -59,4 +62,173 @@ where
         .into_iter()
         .map(|r| r.expect("every frame ran"))
         .collect())
+}
+
+/// One frame of a batch: its centroids and, optionally, their magnitudes.
+pub type FrameRef<'a> = (&'a [[f64; 2]], Option<&'a [f64]>);
+
+impl Solver {
+    /// The zero point a batch's identified frames agree on, and the magnitude tolerance to
+    /// search with it: at least [`ZERO_POINT_MIN_FRAMES`] frames with magnitudes measure one
+    /// ([`Identification::zero_point`]), at most a third of them lie more than
+    /// [`ZERO_POINT_AGREE_MAG`] from the median, which is the answer; the tolerance is
+    /// [`ZERO_POINT_TOLERANCE_SIGMAS`] times the agreeing frames' median spread, within the
+    /// configured tolerance and [`ZERO_POINT_MAX_TOLERANCE_MAG`]. `None` when nothing agrees.
+    pub(crate) fn learn_zero_point(
+        &self,
+        frames: &[FrameRef<'_>],
+        out: &[Identification],
+        config: &IdentifyConfig,
+    ) -> Option<(f64, f64)> {
+        let (z, s): (Vec<f64>, Vec<f64>) = frames
+            .iter()
+            .zip(out)
+            .filter(|(_, id)| id.is_identified())
+            .filter_map(|(f, id)| id.zero_point(f.1?, &self.catalog))
+            .unzip();
+        agreed_zero_point(&z, &s, config.mag_tolerance)
+    }
+
+    /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
+    /// `threads` is not 1 (`None`: all cores). Results come in input order and do not depend on
+    /// the thread count. A malformed frame does not stop the batch: its result has status
+    /// [`Status::InvalidInput`] and the reason in [`Identification::message`].
+    ///
+    /// # Errors
+    /// `InvalidInput` when `config` is invalid or the thread pool cannot start.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    ///
+    /// let frames: Vec<_> = (0..4).map(|s| simulate(&cat, &cam, &SimConfig::default(), s).unwrap()).collect();
+    /// let refs: Vec<_> = frames.iter().map(|f| (f.centroids.as_slice(), Some(f.magnitudes.as_slice()))).collect();
+    /// let ids = solver.identify_batch(&refs, &cam, &IdentifyConfig::default(), None).unwrap();
+    /// assert_eq!(ids.len(), 4);
+    /// ```
+    pub fn identify_batch(
+        &self,
+        frames: &[FrameRef<'_>],
+        camera: &Camera,
+        config: &IdentifyConfig,
+        threads: Option<usize>,
+    ) -> Result<Vec<Identification>> {
+        self.identify_batch_until(frames, camera, config, threads, &AtomicBool::new(false))
+    }
+
+    /// As [`Solver::identify_batch`], checking `cancel` before each frame: once it is set, the
+    /// batch returns `ErrorKind::Cancelled` within about one frame's time per thread (a frame
+    /// ends within the search's work budget) plus a chunk's bookkeeping. Frames run in chunks
+    /// of [`BATCH_CHUNK`], so a cancelled batch of millions allocates only what it finished.
+    ///
+    /// # Errors
+    /// As [`Solver::identify_batch`]; `Cancelled` once `cancel` is set.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    ///
+    /// use std::sync::atomic::AtomicBool;
+    /// let frames: Vec<_> = (0..4).map(|s| simulate(&cat, &cam, &SimConfig::default(), s).unwrap()).collect();
+    /// let refs: Vec<_> = frames.iter().map(|f| (f.centroids.as_slice(), None)).collect();
+    /// let stop = AtomicBool::new(true); // already cancelled
+    /// let e = solver.identify_batch_until(&refs, &cam, &IdentifyConfig::default(), None, &stop).unwrap_err();
+    /// assert_eq!(e.kind(), &starid_core::ErrorKind::Cancelled);
+    /// ```
+    pub fn identify_batch_until(
+        &self,
+        frames: &[FrameRef<'_>],
+        camera: &Camera,
+        config: &IdentifyConfig,
+        threads: Option<usize>,
+        cancel: &AtomicBool,
+    ) -> Result<Vec<Identification>> {
+        config.validate()?;
+        // Without the `parallel` feature every batch runs on the calling thread.
+        #[cfg(not(feature = "parallel"))]
+        let _ = threads;
+        let one = |f: &FrameRef<'_>, config: &IdentifyConfig| -> Identification {
+            if cancel.load(Ordering::Relaxed) {
+                // Nothing is looked at; the chunk's end reports the cancellation.
+                return Identification::unidentified(Status::NoMatch, 0, 0, Duration::ZERO);
+            }
+            self.identify(f.0, f.1, camera, config)
+                .unwrap_or_else(|e| Identification::invalid_input(f.0.len(), e.to_string()))
+        };
+        // The frames `which` picks (all of them: `None`), identified with `config`.
+        let run =
+            |which: Option<&[usize]>, config: &IdentifyConfig| -> Result<Vec<Identification>> {
+                let total = which.map_or(frames.len(), <[usize]>::len);
+                let mut out = Vec::with_capacity(total.min(BATCH_CHUNK));
+                let mut start = 0;
+                while start < total {
+                    let end = (start + BATCH_CHUNK).min(total);
+                    if cancel.load(Ordering::Relaxed) {
+                        return Err(Error::cancelled());
+                    }
+                    let frame = |k: usize| &frames[which.map_or(k, |w| w[k])];
+                    #[cfg(feature = "parallel")]
+                    if threads != Some(1) && end - start > 1 {
+                        use rayon::prelude::*;
+                        out.par_extend((start..end).into_par_iter().map(|k| one(frame(k), config)));
+                        start = end;
+                        continue;
+                    }
+                    out.extend((start..end).map(|k| one(frame(k), config)));
+                    start = end;
+                }
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(Error::cancelled());
+                }
+                Ok(out)
+            };
+        let both = || -> Result<Vec<Identification>> {
+            let mut out = run(None, config)?;
+            // A zero point the identified frames agree on: the frames nothing identified
+            // without it are searched again, magnitude-gated (nothing is measured while every
+            // frame with magnitudes is identified).
+            let failed = |i: usize| {
+                matches!(out[i].status, Status::NoMatch | Status::SearchLimit)
+                    && frames[i].1.is_some()
+            };
+            if !config.learn_zero_point || !(0..frames.len()).any(failed) {
+                return Ok(out);
+            }
+            let Some(learned) = self
+                .learn_zero_point(frames, &out, config)
+                .and_then(|zp| config.with_learned_zero_point(zp))
+            else {
+                return Ok(out);
+            };
+            let offset = learned.mag_offset.unwrap_or_default();
+            let redo: Vec<usize> = (0..frames.len()).filter(|&i| failed(i)).collect();
+            for (i, mut id) in redo.iter().zip(run(Some(&redo), &learned)?) {
+                id.elapsed += out[*i].elapsed;
+                id.hypotheses += out[*i].hypotheses;
+                if id.is_identified() {
+                    id.learned_mag_offset = Some(offset);
+                    out[*i] = id;
+                } else {
+                    out[*i].elapsed = id.elapsed;
+                    out[*i].hypotheses = id.hypotheses;
+                }
+            }
+            Ok(out)
+        };
+        #[cfg(feature = "parallel")]
+        if let Some(t) = threads.filter(|&t| t > 1) {
+            return rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .map_err(|e| Error::invalid_input(format!("cannot start {t} threads: {e}")))?
+                .install(both);
+        }
+        both()
+    }
 }

@@ -1,0 +1,844 @@
+//! `Solver`: a catalogue with its pair indexes, and the passes of a search over them.
+
+use super::*;
+
+/// A catalogue with its pair index: everything identification needs. Immutable and `Sync`:
+/// share one across threads.
+#[derive(Debug, Clone)]
+pub struct Solver {
+    pub(super) catalog: Arc<Catalog>,
+    pub(super) pairs: PairIndex,
+    /// Pairs among the locally bright stars; `None` when they are most of the catalogue.
+    pub(super) bright_pairs: Option<PairIndex>,
+    /// Catalogue magnitudes as `f32`, for the magnitude gate of the search's inner loops.
+    pub(super) mag32: Vec<f32>,
+    /// The same, ascending, with a bin table for counts below a magnitude.
+    pub(super) mag_sorted: SortedMags,
+    /// Catalogue stars per steradian in the sparsest field (cones of half the index's angle).
+    pub(super) min_density_sr: f64,
+    /// Catalogue stars per steradian around any direction (cones of half the index's angle),
+    /// for the false-match bound of every verification; `None` for narrow fields, which count
+    /// their cone instead.
+    pub(super) density: Option<DensityMap>,
+    /// The pair index split by magnitude, built on the first magnitude-gated pass.
+    pub(super) mag_pairs: std::sync::OnceLock<MagPairIndex>,
+    /// The source documents' tables, built on first use.
+    pub(super) seed_tables: std::sync::OnceLock<SeedTables>,
+    pub(super) build_time: Duration,
+}
+
+impl Solver {
+    /// Index `catalog` for frames whose stars are at most `max_angle_rad` apart (a frame's
+    /// diagonal field of view, see [`Camera::diagonal_fov_rad`]).
+    ///
+    /// # Errors
+    /// As [`PairIndex::build`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.pair_index().len() > 0);
+    /// ```
+    pub fn new(catalog: Arc<Catalog>, max_angle_rad: f64) -> Result<Self> {
+        let t = Instant::now();
+        // A deep catalogue: index the brightest stars only (the guide stars); verification
+        // still matches every centroid against the whole catalogue.
+        let n_cat = catalog.len() as f64;
+        let expected = 0.25 * n_cat * n_cat * (1.0 - max_angle_rad.cos());
+        let guide: Option<Vec<bool>> = (expected > MAX_INDEX_PAIRS as f64).then(|| {
+            let keep =
+                (MAX_INDEX_PAIRS as f64 / (0.25 * (1.0 - max_angle_rad.cos()))).sqrt() as usize;
+            let mut mags: Vec<f64> = catalog.mag().to_vec();
+            mags.sort_unstable_by(f64::total_cmp);
+            let limit = mags[keep.clamp(1, mags.len()) - 1];
+            catalog.mag().iter().map(|&m| m <= limit).collect()
+        });
+        let pairs = PairIndex::build_among(&catalog, max_angle_rad, guide.as_deref())?;
+        // Half the width of a square field of this diagonal.
+        let mut members =
+            catalog.locally_bright(max_angle_rad / (2.0 * SQRT_2), BRIGHT_MAX_BRIGHTER);
+        if let Some(g) = &guide {
+            for (m, &k) in members.iter_mut().zip(g) {
+                *m &= k;
+            }
+        }
+        let bright = members.iter().filter(|&&m| m).count();
+        let bright_pairs = if 5 * bright < 4 * catalog.len() {
+            Some(PairIndex::build_among(
+                &catalog,
+                max_angle_rad,
+                Some(&members),
+            )?)
+        } else {
+            None
+        };
+        let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
+        let mag_sorted = SortedMags::new(&mag32);
+        let min_density_sr = sparsest_density(&catalog, 0.5 * max_angle_rad);
+        let density = DensityMap::new(0.5 * max_angle_rad, |v| {
+            catalog.count_in_cone(v, 0.5 * max_angle_rad)
+        });
+        Ok(Self {
+            catalog,
+            pairs,
+            bright_pairs,
+            min_density_sr,
+            density,
+            mag32,
+            mag_sorted,
+            mag_pairs: std::sync::OnceLock::new(),
+            seed_tables: std::sync::OnceLock::new(),
+            build_time: t.elapsed(),
+        })
+    }
+
+    /// Index `catalog` for frames of `camera`.
+    ///
+    /// # Errors
+    /// As [`PairIndex::build`].
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let cam = starid_core::Camera::from_fov(0.2, 512.0, 512.0).unwrap();
+    /// let solver = starid_core::Solver::for_camera(std::sync::Arc::new(cat), &cam).unwrap();
+    /// assert!(solver.pair_index().max_angle_rad() >= cam.diagonal_fov_rad());
+    /// ```
+    pub fn for_camera(catalog: Arc<Catalog>, camera: &Camera) -> Result<Self> {
+        Self::new(catalog, camera.diagonal_fov_rad())
+    }
+
+    /// The catalogue.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert_eq!(solver.catalog().len(), 3000);
+    /// ```
+    pub fn catalog(&self) -> &Arc<Catalog> {
+        &self.catalog
+    }
+
+    /// The pair index.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.pair_index().max_angle_rad() >= 0.3);
+    /// ```
+    pub fn pair_index(&self) -> &PairIndex {
+        &self.pairs
+    }
+
+    /// The pair index over locally bright stars only, searched first when magnitudes are
+    /// given (`None` when those stars are most of the catalogue).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// if let Some(b) = solver.bright_pair_index() {
+    ///     assert!(b.len() < solver.pair_index().len());
+    /// }
+    /// ```
+    pub fn bright_pair_index(&self) -> Option<&PairIndex> {
+        self.bright_pairs.as_ref()
+    }
+
+    /// Heap memory of the indexes in bytes: the pair indexes, the density map, and the
+    /// magnitude-split index and the source documents' tables once built.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.memory_bytes() >= solver.pair_index().memory_bytes());
+    /// ```
+    pub fn memory_bytes(&self) -> usize {
+        self.pairs.memory_bytes()
+            + self
+                .bright_pairs
+                .as_ref()
+                .map_or(0, PairIndex::memory_bytes)
+            + self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
+            + self.seed_tables_bytes()
+            + self.density.as_ref().map_or(0, DensityMap::memory_bytes)
+    }
+
+    /// Memory of the source documents' tables, bytes; 0 until a method of theirs (or
+    /// [`Solver::seed_tables`]) builds them.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert_eq!(solver.seed_tables_bytes(), 0);
+    /// solver.seed_tables();
+    /// assert!(solver.seed_tables_bytes() > 0);
+    /// ```
+    pub fn seed_tables_bytes(&self) -> usize {
+        self.seed_tables.get().map_or(0, SeedTables::memory_bytes)
+    }
+
+    /// Memory of the magnitude-split index, bytes; 0 until a gated search (or
+    /// [`Solver::mag_pair_index`]) builds it.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert_eq!(solver.magnitude_index_bytes(), 0);
+    /// solver.mag_pair_index();
+    /// assert!(solver.magnitude_index_bytes() > 0);
+    /// ```
+    pub fn magnitude_index_bytes(&self) -> usize {
+        self.mag_pairs.get().map_or(0, MagPairIndex::memory_bytes)
+    }
+
+    /// Mean over `windows` of the fraction of catalogue stars no fainter than each window's
+    /// faint end: the stars a centroid may match in verification.
+    pub(crate) fn window_fraction(&self, windows: &[[f32; 2]]) -> f64 {
+        let sorted = &self.mag_sorted;
+        let n = sorted.len().max(1) as f64;
+        let total: f64 = windows
+            .iter()
+            .map(|w| sorted.count_at_most(w[1]) as f64 / n)
+            .sum();
+        (total / windows.len().max(1) as f64).clamp(1.0 / n, 1.0)
+    }
+
+    /// The pair index split by magnitude bins, for magnitude-gated searches (built on first use,
+    /// once, whichever thread asks first).
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.mag_pair_index().memory_bytes() > 0); // built on first use
+    /// ```
+    pub fn mag_pair_index(&self) -> &MagPairIndex {
+        self.mag_pairs
+            .get_or_init(|| MagPairIndex::build(&self.pairs, self.catalog.vectors(), &self.mag32))
+    }
+
+    /// The tables of the source documents' methods (neighbours, line angles, angle sums, ring
+    /// counts) for square fields of the index's diagonal, built on first use, once.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// let t = solver.seed_tables();
+    /// assert!(t.ring_bytes() == 3 * 3000 && t.angle_sum_bytes() > 0);
+    /// ```
+    pub fn seed_tables(&self) -> &SeedTables {
+        self.seed_tables
+            .get_or_init(|| SeedTables::build(&self.catalog, self.pairs.max_angle_rad() / SQRT_2))
+    }
+
+    /// The database `method` searches: `(bytes, build time)`. Pyramid, voting, angular
+    /// distance and distance voting search the pair indexes (and the magnitude index once
+    /// built); the other source documents' methods their own tables (built now if needed).
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::Method;
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// let (pairs, _) = solver.method_database(Method::AngularDistance);
+    /// let (rings, _) = solver.method_database(Method::RadialVote);
+    /// assert!(rings < pairs);
+    /// ```
+    pub fn method_database(&self, method: Method) -> (usize, Duration) {
+        match method {
+            Method::StarLineAngle => {
+                let t = self.seed_tables();
+                (t.star_line_angle_bytes(), t.neighbour_build_time())
+            }
+            Method::AngleSum => {
+                let t = self.seed_tables();
+                (t.angle_sum_bytes(), t.neighbour_build_time())
+            }
+            Method::RadialVote => {
+                let t = self.seed_tables();
+                (t.ring_bytes(), t.ring_build_time())
+            }
+            Method::AngularDistance | Method::DistanceVote => {
+                (self.pairs.memory_bytes(), self.build_time)
+            }
+            _ => (self.memory_bytes(), self.build_time),
+        }
+    }
+
+    /// Catalogue stars per steradian in the sparsest field of the sky (cones of half the
+    /// index's angle, sampled at 2000 directions): what the search's early stop assumes.
+    pub(crate) fn min_density_sr(&self) -> f64 {
+        self.min_density_sr
+    }
+
+    /// Catalogue magnitudes as `f32`.
+    pub(crate) fn mag_f32(&self) -> &[f32] {
+        &self.mag32
+    }
+
+    /// Time it took to build the pair indexes.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.build_time().as_secs_f64() < 60.0);
+    /// ```
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+
+    /// Identify the stars of one frame.
+    ///
+    /// `centroids` are pixel `(x, y)`, x right, y down, origin at the sensor's top-left corner;
+    /// `magnitudes`, when given, one instrument magnitude per centroid (smaller is brighter), in
+    /// any zero point: their order decides which stars are searched first (among the locally
+    /// bright catalogue stars, then among all), and a match far brighter than its catalogue
+    /// star is dropped ([`MAG_BRIGHTER_LIMIT`]).
+    ///
+    /// With [`IdentifyConfig::focal_check`] (the default), a verified solution that leaves spots
+    /// unnamed is checked for a focal length off; a significant one sends the frame back to the
+    /// search with the focal length the residuals imply (see [`scale`]), and the result then
+    /// carries it in [`Identification::focal_length_px`].
+    ///
+    /// # Errors
+    /// `InvalidInput` for fewer than [`MIN_CENTROIDS`] or more than [`MAX_CENTROIDS`] centroids,
+    /// non-finite or duplicate centroids, centroids off the sensor, magnitudes of the wrong
+    /// length or non-finite, or an invalid `config`. A frame that cannot be identified is not
+    /// an error: see [`Identification::status`].
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    ///
+    /// let frame = simulate(&cat, &cam, &SimConfig { noise_px: 0.2, ..Default::default() }, 3).unwrap();
+    /// let id = solver.identify(&frame.centroids, Some(&frame.magnitudes), &cam, &IdentifyConfig::default()).unwrap();
+    /// assert!(id.is_identified());
+    /// for (got, truth) in id.catalog_index.iter().zip(&frame.catalog_index) {
+    ///     assert!(got.is_none() || got == truth); // never a wrong id
+    /// }
+    /// ```
+    pub fn identify(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+    ) -> Result<Identification> {
+        let start = Instant::now();
+        config.validate()?;
+        validate_centroids(centroids, magnitudes, camera)?;
+        let mut id = self.search_frame(centroids, magnitudes, camera, config, start)?;
+        // A solution that names every spot leaves no star out by a focal error worth a search.
+        if config.focal_check && id.verified && id.matched < centroids.len() {
+            self.check_focal(centroids, magnitudes, camera, config, start, &mut id)?;
+        }
+        id.elapsed = start.elapsed();
+        Ok(id)
+    }
+
+    /// The focal check (see [`scale`]): while a verified solution's residuals show the focal
+    /// length (or the radial distortion) off, search the frame again with the camera they imply,
+    /// at most [`scale::FOCAL_RETRIES`] times, keeping a new solution that matches at least as
+    /// many centroids (more, for a distortion error short of significance: see
+    /// [`scale::K1_TRY_SIGMAS`]). Within the configured timeout only.
+    pub(crate) fn check_focal(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        start: Instant,
+        id: &mut Identification,
+    ) -> Result<()> {
+        let vectors = self.catalog.vectors();
+        let mut cam = *camera;
+        // The camera's errors that the solution kept shows (`id` under `cam`).
+        let mut err = scale::camera_error(centroids, &cam, id, vectors);
+        for _ in 0..scale::FOCAL_RETRIES {
+            let Some(((a, b), strict)) = err.and_then(|e| e.correction()) else {
+                break;
+            };
+            if config.timeout.is_some_and(|t| start.elapsed() >= t) {
+                break;
+            }
+            let mut trial = cam;
+            trial.focal_length_px *= 1.0 + a;
+            if b != 0.0 {
+                let Ok(t) = trial.with_k1(cam.k1 + b) else {
+                    break;
+                };
+                trial = t;
+            }
+            let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
+            if !(again.verified && again.matched >= id.matched + usize::from(strict)) {
+                break;
+            }
+            let k1_corrected = id.k1.is_some() || b != 0.0;
+            (cam, *id) = (trial, again);
+            id.focal_length_px = Some(cam.focal_length_px);
+            id.k1 = k1_corrected.then_some(cam.k1);
+            err = scale::camera_error(centroids, &cam, id, vectors);
+        }
+        // What the final matches still show (below the search's threshold) refines the camera
+        // found: the attitude refitted and the residuals recomputed with it, the matches kept.
+        if let (Some(_), Some(e)) = (id.focal_length_px, err) {
+            let ((a, b), se) = e.refinement(id.k1.is_some());
+            cam.focal_length_px *= 1.0 + a;
+            if let Ok(t) = cam.with_k1(cam.k1 + b) {
+                cam = t;
+            }
+            self.refit_matches(centroids, &cam, id);
+            id.focal_length_px = Some(cam.focal_length_px);
+            id.focal_sigma_px = se * cam.focal_length_px;
+            id.k1 = id.k1.map(|_| cam.k1);
+        }
+        Ok(())
+    }
+
+    /// The attitude and residuals of `id`'s matches under `camera`.
+    pub(crate) fn refit_matches(
+        &self,
+        centroids: &[[f64; 2]],
+        camera: &Camera,
+        id: &mut Identification,
+    ) {
+        let Some(r0) = id.r_icrs_to_cam else { return };
+        let vectors = self.catalog.vectors();
+        let obs: Vec<Vector3<f64>> = centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], id.mirrored))
+            .collect();
+        let (o, c): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = id
+            .catalog_index
+            .iter()
+            .zip(&obs)
+            .filter_map(|(s, v)| s.map(|s| (*v, vectors[s as usize])))
+            .unzip();
+        let Some(r) = wahba_from(&o, &c, &r0) else {
+            return;
+        };
+        for ((res, s), v) in id.residuals_rad.iter_mut().zip(&id.catalog_index).zip(&obs) {
+            if let Some(s) = s {
+                // As verification gives them: the sine of the angle.
+                *res = v.cross(&(r * vectors[*s as usize])).norm();
+            }
+        }
+        id.r_icrs_to_cam = Some(r);
+    }
+
+    /// One search of a validated frame with the camera as given.
+    pub(crate) fn search_frame(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        start: Instant,
+    ) -> Result<Identification> {
+        let n = centroids.len();
+        if n < MIN_CENTROIDS {
+            let mut id = Identification::unidentified(Status::TooFewStars, n, 0, start.elapsed());
+            id.method = config.method;
+            return Ok(id);
+        }
+        // The frame's buffers come from the thread's scratch and go back to it at the end.
+        let mut scratch = take_scratch();
+        let mut frame = std::mem::take(&mut scratch.frame);
+        let FrameBuffers {
+            obs,
+            obs_mirrored,
+            order,
+            passes,
+        } = &mut frame;
+        obs.clear();
+        obs.extend(
+            centroids
+                .iter()
+                .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
+        );
+        obs_mirrored.clear();
+        if camera.is_ideal() {
+            obs_mirrored.extend(obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)));
+        } else {
+            obs_mirrored.extend(
+                centroids
+                    .iter()
+                    .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
+            );
+        }
+        brightness_order_into(n, magnitudes, order);
+        let ladder: &[f64] = match &config.centroid_sigma_px {
+            Some(s) => std::slice::from_ref(s),
+            None => &SIGMA_LADDER_PX,
+        };
+        let gated = self.magnitudes_fit(magnitudes, config);
+        self.passes(n, ladder, magnitudes.is_some(), gated, config, passes);
+        // Catalogue-magnitude windows of each centroid (known zero point): the tight one first
+        // (fewer hypotheses compete, so a solution of few stars can pass the bound), then the
+        // configured one.
+        let windows = |tol: f64| -> Option<Vec<[f32; 2]>> {
+            match (magnitudes, config.mag_offset) {
+                (Some(m), Some(off)) if gated => Some(
+                    m.iter()
+                        .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32])
+                        .collect(),
+                ),
+                _ => None,
+            }
+        };
+        // Made when a gated pass first needs them (most frames end in the bright pass before).
+        let gate = std::cell::OnceCell::new();
+        let gate_tight = std::cell::OnceCell::new();
+        let fraction =
+            |g: &Option<Vec<[f32; 2]>>| g.as_deref().map_or(1.0, |g| self.window_fraction(g));
+        let mut gated_ran = false;
+        let mut fraction_normal = None;
+        let stride = passes
+            .iter()
+            .filter(|p| !p.gated)
+            .map(|p| p.stars)
+            .max()
+            .unwrap_or(3)
+            .min(n);
+        scratch.forget_angles(stride);
+        let mut search = Search::new(
+            self,
+            camera,
+            config,
+            [obs, obs_mirrored],
+            magnitudes,
+            order,
+            scratch,
+        );
+        search.stride = stride;
+        search.deadline = config.timeout.map(|t| start + t);
+        let mut status = Status::NoMatch;
+        // Set when the gated passes spent the budget: only the closing pass runs then.
+        let mut closing_only = false;
+        for &pass in passes.iter() {
+            if closing_only && !pass.closing {
+                continue;
+            }
+            search.pairs = if pass.bright {
+                self.bright_pairs.as_ref().unwrap_or(&self.pairs)
+            } else {
+                &self.pairs
+            };
+            let (gate, gate_tight) = if pass.gated {
+                (
+                    gate.get_or_init(|| windows(config.mag_tolerance)),
+                    gate_tight.get_or_init(|| windows(TIGHT_MAG_FRACTION * config.mag_tolerance)),
+                )
+            } else {
+                (&None, &None)
+            };
+            if pass.gated {
+                search.gate_fraction = *fraction_normal.get_or_insert_with(|| fraction(gate));
+                // Gated passes search more stars: a wider angle cache.
+                let wide = pass.stars.min(n);
+                if wide > search.stride {
+                    search.stride = wide;
+                    search.scratch.forget_angles(wide);
+                }
+            }
+            search.gate = if pass.gated { gate.as_deref() } else { None };
+            search.gen_gate = if pass.gated && pass.tight {
+                gate_tight.as_deref()
+            } else {
+                None
+            };
+            if pass.gated {
+                let stride = search.stride;
+                search.scratch.side_cache.reset(stride);
+            }
+            // After gated passes (a crowded frame with calibrated magnitudes), the ungated
+            // passes that follow, the fallback for magnitudes that mislead, get a budget too.
+            search.pass_pairs_limit = if closing_only {
+                search.pairs_visited.saturating_add(CLOSING_LOOSE_PAIRS)
+            } else if pass.gated {
+                gated_ran = true;
+                search.pairs_visited.saturating_add(pass.pairs_budget)
+            } else if gated_ran {
+                // After gated passes (calibrated magnitudes, nothing found), the ungated passes
+                // are a short fallback: a frame whose magnitudes mislead should say so
+                // (`mag_offset: None`) and is then searched without the gate, in full.
+                search.pairs_visited.saturating_add(FALLBACK_PAIRS_PER_STEP)
+            } else if n > config.max_search_stars {
+                // A crowded frame searched by its brightest spots alone: most are false, and a
+                // search that has not found an all-real triangle yet seldom will.
+                search
+                    .pairs_visited
+                    .saturating_add(CROWDED_PAIRS_PER_STEP.min(pass.pairs_budget))
+            } else {
+                // A pass's own budget (the loosest step's: see LOOSEST_STEP_SHARE), if any.
+                search.pairs_visited.saturating_add(pass.pairs_budget)
+            };
+            search.method = pass.method;
+            let work_before = search.pairs_visited;
+            let found = match pass.method {
+                Method::Voting => search.vote(pass.stars, pass.sigma_px),
+                m if m.is_seed() => search.seed(m, pass.stars, pass.sigma_px),
+                _ => search.run(pass.stars, pass.sigma_px, pass.cap),
+            };
+            if pass.gated {
+                search.gated_work += search.pairs_visited - work_before;
+            }
+            match found {
+                Ok(Some(v)) => {
+                    let hypotheses = search.hypotheses;
+                    let method = search.method;
+                    let mut scratch = search.scratch;
+                    scratch.frame = frame;
+                    return_scratch(scratch);
+                    let mut id = v.into_identification(hypotheses, start.elapsed());
+                    id.method = method;
+                    return Ok(id);
+                }
+                Ok(None) => {}
+                Err(SearchLimit(Status::SearchLimit)) if pass.gated && !closing_only => {
+                    // The budget, spent by the gated passes (whose work then no longer counts
+                    // against it, as above): the closing pass still runs.
+                    status = Status::SearchLimit;
+                    closing_only = true;
+                }
+                Err(SearchLimit(why)) => {
+                    status = why;
+                    break;
+                }
+            }
+        }
+        let hypotheses = search.hypotheses;
+        let mut scratch = search.scratch;
+        scratch.frame = frame;
+        return_scratch(scratch);
+        let mut id = Identification::unidentified(status, n, hypotheses, start.elapsed());
+        id.method = config.method;
+        Ok(id)
+    }
+
+    /// Whether the centroids' magnitudes fit the catalogue's system (after `mag_offset`): most
+    /// centroids' windows hold catalogue stars. An arbitrary instrument zero point (or
+    /// magnitudes that mislead) puts them outside, and the frame is searched without the gate.
+    pub(crate) fn magnitudes_fit(
+        &self,
+        magnitudes: Option<&[f64]>,
+        config: &IdentifyConfig,
+    ) -> bool {
+        match (magnitudes, config.mag_offset) {
+            (Some(m), Some(off)) => {
+                let tol = config.mag_tolerance;
+                let sorted = &self.mag_sorted;
+                // More than half the centroids have a catalogue star in their window: stop
+                // counting once that is known.
+                let need = m.len() / 2 + 1;
+                m.iter()
+                    .filter(|&&mi| {
+                        let (lo, hi) = ((mi - off - tol) as f32, (mi - off + tol) as f32);
+                        sorted.first_at_least(lo).is_some_and(|x| x <= hi)
+                    })
+                    .take(need)
+                    .count()
+                    >= need
+            }
+            _ => false,
+        }
+    }
+
+    /// The passes of one identification, in order.
+    ///
+    /// Pyramid passes run in the order of the noise ladder, whose last (loosest) step comes last
+    /// for both indexes: its wide tolerances find coincidences and verify with a wide radius, so
+    /// it is the last resort. With magnitudes, each earlier step first tries the brightest few
+    /// stars against the locally bright stars only: cheap, and it nearly always succeeds. With a
+    /// known zero point (`mag_offset`), a magnitude-gated pass over every centroid follows: it
+    /// finds the few real stars among many false ones.
+    pub(crate) fn passes(
+        &self,
+        n: usize,
+        ladder: &[f64],
+        has_mags: bool,
+        gated: bool,
+        config: &IdentifyConfig,
+        passes: &mut Vec<Pass>,
+    ) {
+        let (last, early) = ladder.split_last().expect("the ladder has a step");
+        let pass = |bright: bool, stars: usize, sigma_px: f64, cap: usize| Pass {
+            bright,
+            gated: false,
+            tight: false,
+            pairs_budget: usize::MAX,
+            stars,
+            sigma_px,
+            cap,
+            method: Method::Pyramid,
+            closing: false,
+        };
+        // The brightest few at the loosest step: cheap, and the last resort of a frame whose
+        // gated passes spent the budget (see CLOSING_LOOSE_PAIRS).
+        let closing_pass = Pass {
+            closing: true,
+            ..pass(true, BRIGHT_SEARCH_STARS, *last, usize::MAX)
+        };
+        passes.clear();
+        if config.method == Method::Voting || config.method.is_seed() {
+            for &s in ladder {
+                passes.push(Pass {
+                    gated: gated && config.method == Method::Voting,
+                    method: config.method,
+                    ..pass(false, n.min(HOSTILE_SEARCH_STARS), s, usize::MAX)
+                });
+            }
+            return;
+        }
+        // Without magnitudes, the input order is taken as brightness order (extractors list
+        // spots brightest first) unless the configuration says it is not: the cheap pass over the
+        // first few spots runs then too.
+        let bright = self.bright_pairs.is_some() && (has_mags || config.brightness_order);
+        // Crowded frames need more triangles before an all-real one comes up: the tighter steps
+        // try a fixed share of the search stars' triangles there.
+        let s = n.min(config.max_search_stars);
+        let triangles_per_step =
+            TRIANGLES_PER_STEP.max(s * (s - 1) * (s - 2) / 6 / CROWDED_TRIANGLE_SHARE);
+        if bright {
+            passes.extend(
+                early
+                    .iter()
+                    .map(|&s| pass(true, BRIGHT_SEARCH_STARS, s, usize::MAX)),
+            );
+            // Without a magnitude gate (the order alone, or magnitudes of unknown zero point),
+            // false spots among the brightest few can hide a sparse field's stars: the locally
+            // bright pairs once more, over more spots, before the whole index (see
+            // BRIGHT_WIDE_SEARCH_STARS).
+            if !gated && n > BRIGHT_SEARCH_STARS && n <= config.max_search_stars {
+                let tightest = early.first().copied().unwrap_or(*last);
+                passes.push(pass(true, BRIGHT_WIDE_SEARCH_STARS, tightest, usize::MAX));
+            }
+        }
+        if gated && config.method == Method::Auto && n > BRIGHT_SEARCH_STARS {
+            // The tightest step over every spot; looser ones over the brightest
+            // HOSTILE_LOOSE_STARS only (their wider tolerances multiply the candidates).
+            // The gated steps: all but the loosest of the ladder (or the one given).
+            let gated_steps: &[f64] = if early.is_empty() { ladder } else { early };
+            // First the tight magnitude window at the tightest step, then the configured one.
+            passes.push(Pass {
+                gated: true,
+                tight: true,
+                pairs_budget: HOSTILE_PAIRS_PER_STEP / 2,
+                method: Method::Auto,
+                ..pass(
+                    false,
+                    n.min(HOSTILE_SEARCH_STARS),
+                    gated_steps[0],
+                    HOSTILE_TRIANGLES,
+                )
+            });
+            passes.extend(gated_steps.iter().enumerate().map(|(k, &s)| Pass {
+                gated: true,
+                pairs_budget: if k == 0 {
+                    HOSTILE_PAIRS_PER_STEP / 2
+                } else {
+                    HOSTILE_PAIRS_PER_STEP / 8
+                },
+                method: Method::Auto,
+                ..pass(
+                    false,
+                    n.min(if k == 0 {
+                        HOSTILE_SEARCH_STARS
+                    } else {
+                        HOSTILE_LOOSE_STARS
+                    }),
+                    s,
+                    HOSTILE_TRIANGLES,
+                )
+            }));
+            // A crowded frame whose calibrated magnitudes found nothing: the ungated passes
+            // over its brightest spots, the fallback for magnitudes that mislead, would mostly
+            // try false stars; they are left out beyond this many spots.
+            // The brightest few at the loosest step still close the search.
+            if n > HOSTILE_FALLBACK_MAX_SPOTS {
+                if bright && !early.is_empty() {
+                    passes.push(closing_pass);
+                }
+                return;
+            }
+        }
+        passes.extend(
+            early
+                .iter()
+                .map(|&s| pass(false, config.max_search_stars, s, triangles_per_step)),
+        );
+        if bright {
+            passes.push(closing_pass);
+        }
+        // The loosest step, the last resort, on a share of the budget (see LOOSEST_STEP_SHARE).
+        passes.push(Pass {
+            pairs_budget: if early.is_empty() {
+                usize::MAX
+            } else {
+                config.max_pairs_visited / LOOSEST_STEP_SHARE
+            },
+            ..pass(false, config.max_search_stars, *last, usize::MAX)
+        });
+        for p in passes.iter_mut() {
+            p.stars = p.stars.min(n);
+        }
+    }
+}
+
+/// The early stop's density: this quantile (per mille) of the fields' star counts.
+pub(crate) const SPARSE_QUANTILE_PERMILLE: usize = 50;
+
+/// Stars per steradian in the sparsest of 2000 cones of `radius_rad` spread evenly over the
+/// sky (a Fibonacci lattice), at least one star per cone.
+pub(crate) fn sparsest_density(catalog: &Catalog, radius_rad: f64) -> f64 {
+    pub(crate) const CONES: usize = 2000;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut counts: Vec<usize> = (0..CONES)
+        .map(|k| {
+            let z = 1.0 - (2.0 * k as f64 + 1.0) / CONES as f64;
+            let rho = (1.0 - z * z).sqrt();
+            let phi = golden * k as f64;
+            let v = Vector3::new(rho * phi.cos(), rho * phi.sin(), z);
+            catalog.count_in_cone(&v, radius_rad)
+        })
+        .collect();
+    counts.sort_unstable();
+    let least = counts[CONES * SPARSE_QUANTILE_PERMILLE / 1000].max(1);
+    least as f64 / (2.0 * std::f64::consts::PI * (1.0 - radius_rad.cos()))
+}
+
+/// One pass of the search.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Pass {
+    /// Search the pairs of locally bright stars only.
+    pub(crate) bright: bool,
+    /// Gate catalogue stars by magnitude.
+    pub(crate) gated: bool,
+    /// With the tight window ([`TIGHT_MAG_FRACTION`] of `mag_tolerance`).
+    pub(crate) tight: bool,
+    /// Catalogue pairs the pass may visit (gated passes, and the loosest step's full pass).
+    pub(crate) pairs_budget: usize,
+    /// Brightest centroids that form triangles.
+    pub(crate) stars: usize,
+    /// Centroid noise of the step, pixels.
+    pub(crate) sigma_px: f64,
+    /// Most triangles tried.
+    pub(crate) cap: usize,
+    /// The method the pass runs (and reports).
+    pub(crate) method: Method,
+    /// The loosest step's bright pass, which still runs when gated passes spent the budget
+    /// (see [`CLOSING_LOOSE_PAIRS`]).
+    pub(crate) closing: bool,
+}
