@@ -213,3 +213,18 @@ def test_ctrl_c_stops_waiting_for_an_index_build(ctrl_c: Callable[[float], None]
     assert time.perf_counter() - t0 < 0.2 + 0.5
     # The build went on in the background: the next call waits for it and uses it.
     assert starid.identify(frame, cat, fov_deg=12.0, image_size=(512, 512)).status != "invalid_input"
+
+
+@pytest.mark.parametrize("bound", [0.2, 0.05])
+def test_the_false_match_bound_holds_on_frames_with_no_star(bound: float) -> None:
+    # Random spots with magnitudes: every identification is a false match, so the observed rate
+    # of identifications must stay under the bound each of them reports (allowing binomial
+    # scatter over the frames).
+    rng = np.random.default_rng(11)
+    n = 200
+    frames = [rng.uniform(0, 512, (8, 2)) for _ in range(n)]
+    mags = [np.sort(rng.uniform(2.0, 6.5, 8)) for _ in range(n)]
+    res = starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), magnitudes=mags, max_false_match_prob=bound)
+    accepted = [r for r in res if r.ok]
+    assert all(r.false_match_probability <= bound for r in accepted)
+    assert len(accepted) <= bound * n + 3 * (bound * (1 - bound) * n) ** 0.5
