@@ -201,7 +201,7 @@ class _Default:
     (so that a config's own ``mag_offset`` is not overridden by a keyword nobody gave)."""
 
     def __repr__(self) -> str:
-        return "0.0"
+        return repr(_DEFAULT_CONFIG.mag_offset)  # the core's default, written once there
 
 
 _UNSET: Any = _Default()
