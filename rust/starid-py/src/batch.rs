@@ -161,8 +161,8 @@ fn results<'py>(
     let cat = catalog.get();
     PyList::new(
         py,
-        out.iter().zip(frames).map(|((id, cam, sigma), f)| {
-            let r = PyIdentification::new(cat, id, cam, *sigma);
+        out.into_iter().zip(frames).map(|((id, cam, sigma), f)| {
+            let r = PyIdentification::new(cat, id, &cam, sigma);
             match f {
                 Ok((xy, m)) => r.with_spots(xy, m),
                 Err(_) => r,

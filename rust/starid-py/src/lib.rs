@@ -323,7 +323,7 @@ fn identify_frame_of(
             .identify(&centroids, mags.as_deref(), &cam, &cfg)
             .map(|id| (id, centroids, mags))
     })?;
-    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN).with_spots(centroids, mags))
+    Ok(PyIdentification::new(catalog.get(), id, &cam, f64::NAN).with_spots(centroids, mags))
 }
 
 /// `identify`'s common call in one native step: centroids as a float64 (N, 2) array,
@@ -469,7 +469,7 @@ fn identify_many<'py>(
     let cat = catalog.get();
     drop(refs);
     let out = results
-        .iter()
+        .into_iter()
         .zip(frames)
         .zip(mags)
         .enumerate()

@@ -196,10 +196,15 @@ impl PyIdentification {
     /// an estimated focal length (NaN when it was given).
     pub fn new(
         catalog: &crate::catalog::PyCatalog,
-        id: &Identification,
+        id: Identification,
         camera: &Camera,
         focal_sigma_px: f64,
     ) -> Self {
+        // The result's own vectors become the Python object's: no copies.
+        let mut residuals_arcsec = id.residuals_rad;
+        for r in &mut residuals_arcsec {
+            *r *= ARCSEC_PER_RAD;
+        }
         // The focal check's focal length, where it replaced the camera's.
         let (camera, focal_sigma_px) = match id.focal_length_px {
             Some(f) => (
@@ -215,16 +220,12 @@ impl PyIdentification {
         Self {
             status: id.status.as_str(),
             method: id.method.name(),
-            message: id.message.clone(),
+            message: id.message,
             hinted: id.hinted,
             verified: id.verified,
             catalog: catalog.name(),
             ids: ids_of(&catalog.inner, &id.catalog_index),
-            residuals_arcsec: id
-                .residuals_rad
-                .iter()
-                .map(|r| r * ARCSEC_PER_RAD)
-                .collect(),
+            residuals_arcsec,
             rotation: id.r_icrs_to_cam,
             mirrored: id.mirrored,
             false_match_probability: id.false_match_probability,
@@ -243,7 +244,7 @@ impl PyIdentification {
             radec_roll: OnceLock::new(),
             spots: Spots {
                 catalog: Some(catalog.inner.clone()),
-                index: id.catalog_index.clone(),
+                index: id.catalog_index,
                 ..Spots::default()
             },
             sensor: [

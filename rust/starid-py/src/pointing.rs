@@ -266,7 +266,7 @@ pub fn identify_unknown_fov<'py>(
     })?
     .map_err(PyStaridError)?;
     let (id, cam, sigma) = unknown_fov_result(r, &widest);
-    Ok(PyIdentification::new(catalog.get(), &id, &cam, sigma).with_spots(centroids, mags))
+    Ok(PyIdentification::new(catalog.get(), id, &cam, sigma).with_spots(centroids, mags))
 }
 
 /// What a frame of an unknown field of view in `[fov_lo_deg, fov_hi_deg]` needs: the solver for

@@ -96,7 +96,7 @@ pub(crate) fn identify_hinted_of(
             .identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
             .map(|id| (id, centroids, mags))
     })?;
-    Ok(PyIdentification::new(catalog.get(), &id, &cam, f64::NAN).with_spots(centroids, mags))
+    Ok(PyIdentification::new(catalog.get(), id, &cam, f64::NAN).with_spots(centroids, mags))
 }
 
 /// The core tracker with its solver and camera.
@@ -172,7 +172,7 @@ impl PyTracker {
         let catalog = self.catalog.bind(py);
         d.set_item(
             "identification",
-            PyIdentification::new(catalog.get(), &step.identification, &cam, f64::NAN)
+            PyIdentification::new(catalog.get(), step.identification, &cam, f64::NAN)
                 .with_spots(centroids, mags),
         )?;
         d.set_item("mode", step.mode.as_str())?;
