@@ -15,6 +15,7 @@ the Rust core; see ARCHITECTURE.md.
 from . import guide, plot, pointing, tracking, wcs
 from ._catalog import MIN_STARS_PER_FIELD, Catalog, catalog_for
 from ._errors import CatalogError, InvalidInputError, StaridError
+from ._batch import identify_many
 from ._identify import (
     DEFAULT_FOV_RANGE_DEG,
     METHODS,
@@ -24,7 +25,6 @@ from ._identify import (
     Identification,
     IdentifyConfig,
     identify,
-    identify_many,
     simulate,
     simulate_scene,
 )

@@ -15,7 +15,8 @@ import numpy as np
 
 from ._catalog import Catalog, resolve_catalog
 from ._starid import __version__
-from ._identify import METHODS, Camera, Identification, identify, identify_many, simulate
+from ._batch import identify_many
+from ._identify import METHODS, Camera, Identification, identify, simulate
 from ._errors import InvalidInputError
 from ._files import same_file, write_atomically
 from .images import extract_centroids

@@ -31,7 +31,8 @@ import pandas as pd
 from . import _starid
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Identification, _camera, _invalid, identify_many
+from ._batch import identify_many
+from ._identify import CatalogLike, Identification, _camera, _invalid
 
 try:
     import dask.bag as dask_bag

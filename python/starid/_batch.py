@@ -1,0 +1,274 @@
+"""Batches: many frames of one camera, identified by the core in parallel (``identify_many``),
+and images read and extracted on threads first."""
+
+from __future__ import annotations
+
+import numbers
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable, Mapping, Optional, Sequence, Sized, TypeVar, cast
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _starid
+from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+from ._errors import InvalidInputError
+from ._identify import (
+    _F64,
+    _UNSET,
+    DEFAULT_FOV_RANGE_DEG,
+    CatalogLike,
+    Identification,
+    _camera,
+    _config,
+    _flag,
+    _fov_range,
+    _from_pixel_origin,
+    _hint,
+    _image_size,
+    _invalid,
+    _is_image,
+    _magnitudes,
+    _positive,
+    _xy,
+)
+from .images import extract_centroids, identify_image
+
+T = TypeVar("T")
+
+__all__ = ["identify_many"]
+
+
+def identify_many(
+    frames: Sequence[npt.ArrayLike],
+    catalog: CatalogLike = None,
+    fov_deg: Optional[float] = None,
+    image_size: Optional[tuple[float, float]] = None,
+    *,
+    camera: Optional[Any] = None,
+    fov_range_deg: Optional[tuple[float, float]] = None,
+    magnitudes: Optional[Sequence[Optional[npt.ArrayLike]]] = None,
+    attitude_hint: Optional[Any] = None,
+    hint_uncertainty_deg: float = 1.0,
+    hint_fallback: bool = True,
+    threads: Optional[int] = None,
+    config: Optional[Any] = None,
+    mag_offset: Optional[float] = _UNSET,
+    pixel_origin: str = "corner",
+    **settings: Any,
+) -> list[Identification]:
+    """Identify many frames of one camera in parallel (Rust threads, GIL released).
+
+    A malformed frame (NaN, a wrong shape, a centroid far off the sensor) does not stop the
+    batch: its result has status ``"invalid_input"`` and the reason, naming the frame, in
+    ``message``. Ctrl-C stops the batch within a frame's time and raises KeyboardInterrupt.
+
+    Arguments as :func:`identify` (every one of them, ``fov_range_deg``, the hint and the
+    settings included; ``attitude_hint`` is one hint for every frame or a list of one per frame,
+    None entries identified lost in space); ``frames`` is a sequence of (N_i, 2) centroid arrays and
+    ``magnitudes`` an optional sequence of per-frame magnitude arrays (or None entries).
+    ``threads`` limits the worker threads (None: all cores); ``timeout_s`` applies to each
+    frame. Results come in input order and
+    do not depend on the thread count.
+
+    ``frames`` may also be images (paths or arrays, as :func:`identify` takes): they are read,
+    extracted and identified in parallel threads (the core releases the GIL), each with its own
+    size; an image that cannot be read gets status ``"invalid_input"`` naming it. With a known
+    field of view their spots are identified as one batch per image size, so that the images
+    learn their magnitudes' zero point together (below).
+
+    A batch of one camera shares a magnitude zero point: with ``mag_offset=None`` the frames
+    identified without it measure it, and the frames nothing identified are searched again
+    with it, magnitude-gated (``learn_zero_point``, on by default; such a frame reports it as
+    ``learned_mag_offset`` and its ``time_s`` counts both searches).
+
+    Examples
+    --------
+    >>> import starid
+    >>> frames = [starid.simulate(fov_deg=12.0, image_size=(512, 512), seed=s).xy for s in range(4)]
+    >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
+    [True, True, True, True]
+    """
+    if mag_offset is not _UNSET:
+        settings["mag_offset"] = mag_offset
+    if isinstance(frames, (str, bytes, os.PathLike, Mapping)) or not isinstance(frames, (Sequence, np.ndarray)):
+        raise InvalidInputError(
+            f"frames must be a sequence of frames (a list of (N, 2) arrays or of images), got {type(frames).__name__}"
+        )
+    if pixel_origin != "corner":
+        frames = [_from_pixel_origin(f, pixel_origin) for f in frames]
+    if len(frames) > 0 and _is_image(frames[0]):
+        if magnitudes is not None:
+            raise InvalidInputError("images' magnitudes come from their spots: do not pass magnitudes=")
+        return _image_batch(
+            frames, catalog, fov_deg, threads,
+            dict(settings, camera=camera, fov_range_deg=fov_range_deg, attitude_hint=attitude_hint,
+                 hint_uncertainty_deg=hint_uncertainty_deg, hint_fallback=hint_fallback, config=config, image_size=image_size),
+        )
+    cam = _camera(camera, fov_deg, image_size)
+    cat = resolve_catalog_for(catalog, cam)
+    if cam is None:
+        w, h = _image_size(image_size)
+        lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
+    elif fov_range_deg is not None:
+        raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
+    # One malformed frame does not stop the batch: it gets status "invalid_input" and the
+    # reason in ``message``; the others are identified as usual.
+    if magnitudes is not None and len(magnitudes) != len(frames):
+        raise InvalidInputError(f"magnitudes has {len(magnitudes)} entries for {len(frames)} frames")
+    if threads is not None and int(threads) < 1:
+        raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
+    nthreads = None if threads is None else int(threads)
+    cfg = _config(config, settings)
+    if cam is not None and attitude_hint is None and type(frames) is list:
+        # The common batch (lists of float64 arrays) is read by the core without a Python loop;
+        # any other form comes back NotImplemented and is converted below, frame by frame.
+        res = _starid.identify_many(cat._native, frames, magnitudes, cam, cfg, nthreads)
+        if res is not NotImplemented:
+            return cast(list[Identification], res)
+    xys: list[npt.NDArray[np.float64]] = []
+    mags_or_none: list[Optional[npt.NDArray[np.float64]]] = []
+    bad: dict[int, str] = {}
+    for i, f in enumerate(frames):
+        try:
+            # float64 (N, 2) arrays as they are (no conversion, no name written unless needed).
+            if type(f) is np.ndarray and f.dtype is _F64 and f.ndim == 2 and f.shape[1] == 2:
+                a = f
+            else:
+                a = _xy(f)
+            m = None if magnitudes is None else _magnitudes(magnitudes[i], a.shape[0])
+        except ValueError as e:
+            bad[i] = f"frame {i}: {e}"
+            a, m = np.empty((0, 2)), None
+        xys.append(a)
+        mags_or_none.append(m)
+    mags = None if magnitudes is None else mags_or_none
+    if cam is None:
+        if attitude_hint is not None:
+            raise InvalidInputError("an attitude hint needs a known field of view (fov_deg or camera)")
+        results = _unknown_fov_batch(cat, xys, mags_or_none, (w, h), (lo, hi), cfg, threads)
+    elif attitude_hint is not None:
+        results = _hinted_batch(
+            cat, cam, xys, mags_or_none, attitude_hint, _positive("hint_uncertainty_deg", hint_uncertainty_deg),
+            _flag("hint_fallback", hint_fallback), cfg, threads,
+        )
+    else:
+        # Every frame is now a float64 array: the core takes the lists as they are.
+        results = cast(list[Identification], _starid.identify_many(cat._native, xys, mags, cam, cfg, nthreads))
+    # (A frame the core refuses in a batch is already named by its place: see the native
+    # identify_many; the threaded paths name theirs.)
+    for i, msg in bad.items():
+        f = frames[i]
+        results[i] = _invalid(msg, len(f) if isinstance(f, Sized) else 0)
+    return results
+
+
+def _image_batch(
+    images: Sequence[Any], catalog: CatalogLike, fov_deg: Optional[float], threads: Optional[int], kwargs: dict[str, Any]
+) -> list[Identification]:
+    """Images read, extracted and identified on a thread pool, results in input order."""
+    if threads is not None and int(threads) < 1:
+        raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
+    if kwargs.get("image_size") is None:
+        kwargs.pop("image_size")
+    cat = None if catalog is None else resolve_catalog(catalog)
+
+    def named(i: int, message: Any) -> str:
+        """``message`` naming image ``i`` (its path, or its place in the batch)."""
+        name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
+        return str(message) if str(name) in str(message) else f"{name}: {message}"
+
+    def one(i: int) -> Identification:
+        try:
+            return identify_image(images[i], cat, fov_deg, **kwargs).identification
+        except (ValueError, OSError, ImportError) as e:
+            return _invalid(named(i, e), 0)
+
+    workers = (os.cpu_count() or 1) if threads is None else int(threads)
+    known_camera = kwargs.get("camera") is not None or fov_deg is not None
+    if not known_camera or kwargs.get("attitude_hint") is not None or kwargs.get("fov_range_deg") is not None:
+        return _map_threads(one, len(images), workers)
+    # A known camera: the spots of every image first, then the centroid lists identified as one
+    # batch per image size (identify_many), so that the images teach the batch their zero point
+    # (``learn_zero_point``).
+    extract_kw = dict(kwargs.pop("extract", None) or {}, dark=kwargs.pop("dark", None), flat=kwargs.pop("flat", None))
+    size = kwargs.pop("image_size", None)
+    kwargs.pop("attitude_hint", None)
+    kwargs.pop("fov_range_deg", None)
+    kwargs.setdefault("mag_offset", None)
+
+    def spots(i: int) -> Any:
+        try:
+            c = extract_centroids(images[i], **extract_kw)
+            if size is not None and tuple(float(v) for v in size) != c.image_size:
+                raise InvalidInputError(f"image_size {size} differs from the image's {c.image_size}")
+            return c
+        except (ValueError, OSError, ImportError) as e:
+            return named(i, e)
+
+    found = _map_threads(spots, len(images), workers)
+    results: list[Optional[Identification]] = [None] * len(images)
+    by_size: dict[tuple[float, float], list[int]] = {}
+    for i, c in enumerate(found):
+        if isinstance(c, str):
+            results[i] = _invalid(c, 0)
+        else:
+            by_size.setdefault(c.image_size, []).append(i)
+    for sz, idx in by_size.items():
+        cents = [found[i] for i in idx]
+        mags = [c.magnitudes if np.isfinite(c.magnitudes).all() else None for c in cents]
+        batch = identify_many(
+            [c.xy for c in cents], cat, fov_deg, None if kwargs.get("camera") is not None else sz,
+            magnitudes=mags, threads=threads, **kwargs,
+        )
+        for i, r in zip(idx, batch):
+            if r.status == "invalid_input":
+                r = _invalid(named(i, r.message), len(r.ids))
+            results[i] = r._with_times(found[i].read_s, found[i].extract_s)
+    return cast(list[Identification], results)
+
+
+def _map_threads(fn: Callable[[int], T], n: int, workers: int) -> list[T]:
+    """``[fn(0), …, fn(n − 1)]`` on a pool of threads. Ctrl-C cancels the calls not yet begun
+    and raises at once, without waiting for the rest of the batch."""
+    pool = ThreadPoolExecutor(max_workers=max(1, workers))
+    try:
+        return list(pool.map(fn, range(n)))
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _hinted_batch(
+    cat: Catalog,
+    cam: Any,
+    xys: list[npt.NDArray[np.float64]],
+    mags: list[Optional[npt.NDArray[np.float64]]],
+    attitude_hint: Any,
+    uncertainty_deg: float,
+    fallback: bool,
+    cfg: Any,
+    threads: Optional[int],
+) -> list[Identification]:
+    """Frames with attitude hints, identified by the core in parallel (Ctrl-C stops them)."""
+    per_frame = isinstance(attitude_hint, (list, tuple)) and len(attitude_hint) == len(xys) and not (
+        len(xys) in (3, 4) and all(isinstance(v, numbers.Real) for v in attitude_hint)
+    )
+    hints = [
+        None if h is None else _hint(h) for h in (attitude_hint if per_frame else [attitude_hint] * len(xys))
+    ]
+    return _starid.identify_hinted_many(cat._native, xys, mags, cam, cfg, hints, uncertainty_deg, fallback, threads)
+
+
+def _unknown_fov_batch(
+    cat: Catalog,
+    xys: list[npt.NDArray[np.float64]],
+    mags: list[Optional[npt.NDArray[np.float64]]],
+    size: tuple[float, float],
+    fov_range: tuple[float, float],
+    cfg: Any,
+    threads: Optional[int],
+) -> list[Identification]:
+    """Frames of an unknown field of view, identified by the core in parallel (Ctrl-C stops them)."""
+    (w, h), (lo, hi) = size, fov_range
+    return _starid.identify_unknown_fov_many(cat._native, xys, mags, w, h, lo, hi, cfg, threads)
