@@ -56,12 +56,14 @@ mod config;
 mod frame;
 mod hinted;
 mod magbins;
+mod near;
 mod pyramid;
 mod result;
 pub mod scale;
 mod search;
 mod seeds;
 mod solver;
+mod stats;
 mod verify;
 mod voting;
 
@@ -78,7 +80,8 @@ pub use result::*;
 use search::*;
 pub use seeds::{SeedTables, RING_ORDER, RING_SLACK, SEED_CANDIDATES};
 pub use solver::*;
-pub(crate) use verify::{binomial_tail, median_in_place, AMBIGUITY_LOG_ODDS};
+pub(crate) use stats::{binomial_tail, median_in_place};
+pub(crate) use verify::AMBIGUITY_LOG_ODDS;
 
 /// Frames a batch runs between two looks at its cancel flag (and the most results a cancelled
 /// batch has allocated beyond the chunks it finished).

@@ -4,7 +4,7 @@
 use std::f64::consts::{PI, SQRT_2};
 
 use super::magbins::MagPairIndex;
-use super::verify::binomial_tail;
+use super::stats::binomial_tail;
 use super::{
     Search, SearchLimit, Status, Verified, CONFIRM_CHANCE, CONFIRM_POOL, LARGE_FRAME,
     MATCH_RADIUS_SIGMAS, STRONG_FALSE_MATCH_PROB, TRIANGLES_AFTER_WEAK,

@@ -147,11 +147,11 @@ impl Identification {
         if d.len() < ZERO_POINT_MIN_MATCHES {
             return None;
         }
-        let median = verify::median_in_place(&mut d);
+        let median = stats::median_in_place(&mut d);
         for x in &mut d {
             *x = (*x - median).abs();
         }
-        Some((median, 1.4826 * verify::median_in_place(&mut d)))
+        Some((median, 1.4826 * stats::median_in_place(&mut d)))
     }
 
     /// The result of a frame of a batch that could not be read or was refused: status
@@ -202,7 +202,7 @@ pub(crate) fn agreed_zero_point(z: &[f64], s: &[f64], min_tolerance: f64) -> Opt
     if z.len() < ZERO_POINT_MIN_FRAMES {
         return None;
     }
-    let offset = verify::median_in_place(&mut z.to_vec());
+    let offset = stats::median_in_place(&mut z.to_vec());
     let mut spread: Vec<f64> = z
         .iter()
         .zip(s)
@@ -215,7 +215,7 @@ pub(crate) fn agreed_zero_point(z: &[f64], s: &[f64], min_tolerance: f64) -> Opt
     {
         return None;
     }
-    let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * verify::median_in_place(&mut spread)).clamp(
+    let tolerance = (ZERO_POINT_TOLERANCE_SIGMAS * stats::median_in_place(&mut spread)).clamp(
         min_tolerance,
         ZERO_POINT_MAX_TOLERANCE_MAG.max(min_tolerance),
     );

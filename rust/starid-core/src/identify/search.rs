@@ -50,9 +50,9 @@ pub(super) struct Scratch {
     pub(super) votes: Vec<u16>,
     pub(super) vote_touched: Vec<u32>,
     /// The catalogue stars near each centroid under the last attitude looked up.
-    pub(super) near: verify::NearCache,
+    pub(super) near: near::NearCache,
     /// Which centroid claimed each catalogue star in the last matching pass.
-    pub(super) claims: verify::Claims,
+    pub(super) claims: near::Claims,
 }
 
 impl Scratch {
