@@ -55,6 +55,7 @@ mod cancel;
 mod config;
 mod frame;
 mod hinted;
+mod join;
 mod magbins;
 mod near;
 mod pyramid;

@@ -20,8 +20,8 @@ pub(super) struct Scratch {
     /// The frame being searched (taken out of the scratch while the search borrows it).
     pub(super) frame: FrameBuffers,
     /// Binomial tails each pass needs again.
-    pub(super) tails: pyramid::TailMemo,
-    pub(super) adj_ik: pyramid::Adjacency,
+    pub(super) tails: join::TailMemo,
+    pub(super) adj_ik: join::Adjacency,
     pub(super) triangles: Vec<[u32; 3]>,
     pub(super) matches: Vec<Option<(u32, f64)>>,
     pub(super) claim: Vec<(u32, u32, f64)>,
