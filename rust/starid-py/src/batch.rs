@@ -17,51 +17,95 @@ use crate::PyIdentifyConfig;
 /// How often the calling thread looks for Ctrl-C while the work runs.
 const SIGNAL_CHECK: std::time::Duration = std::time::Duration::from_millis(20);
 
+/// Where a worker thread leaves its answer (or its panic) for the caller waiting on it.
+struct Slot<T> {
+    value: std::sync::Mutex<Option<std::thread::Result<T>>>,
+    ready: std::sync::Condvar,
+}
+
+impl<T: Send> Slot<T> {
+    fn new() -> Self {
+        Self {
+            value: std::sync::Mutex::new(None),
+            ready: std::sync::Condvar::new(),
+        }
+    }
+
+    /// `work()`'s answer, or its panic, left for the waiting caller.
+    fn fill(&self, work: impl FnOnce() -> T) {
+        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+        *self
+            .value
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(out);
+        self.ready.notify_all();
+    }
+
+    /// The answer, once it is there, waiting at most `wait` (`None`: as long as it takes) with
+    /// the GIL released.
+    fn take(
+        &self,
+        py: Python<'_>,
+        wait: Option<std::time::Duration>,
+    ) -> Option<std::thread::Result<T>> {
+        py.detach(|| {
+            let guard = self
+                .value
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            let mut guard = match wait {
+                Some(w) => {
+                    self.ready
+                        .wait_timeout_while(guard, w, |v| v.is_none())
+                        .unwrap_or_else(std::sync::PoisonError::into_inner)
+                        .0
+                }
+                None => self
+                    .ready
+                    .wait_while(guard, |v| v.is_none())
+                    .unwrap_or_else(std::sync::PoisonError::into_inner),
+            };
+            guard.take()
+        })
+    }
+
+    /// The answer, letting Python handle signals every 20 ms meanwhile: Ctrl-C runs
+    /// `on_interrupt` and raises KeyboardInterrupt.
+    fn wait(&self, py: Python<'_>, on_interrupt: impl FnOnce()) -> PyResult<T> {
+        loop {
+            if let Err(interrupt) = py.check_signals() {
+                on_interrupt();
+                return Err(interrupt);
+            }
+            match self.take(py, Some(SIGNAL_CHECK)) {
+                Some(Ok(out)) => return Ok(out),
+                Some(Err(_)) => {
+                    return Err(crate::errors::InvalidInputError::new_err(
+                        "a starid worker thread panicked",
+                    ))
+                }
+                None => {}
+            }
+        }
+    }
+}
+
 /// `work(cancel)` with the GIL released, on a thread of its own, while this one lets Python
 /// handle signals every 20 ms: Ctrl-C raises `cancel`, waits for the work to end (it polls the
-/// flag) and raises KeyboardInterrupt. The wait ends as soon as the work does (a condition
-/// variable, not a sleep).
+/// flag) and raises KeyboardInterrupt. The wait ends as soon as the work does.
 pub fn watched<T, F>(py: Python<'_>, work: F) -> PyResult<T>
 where
     T: Send,
     F: FnOnce(&Cancel) -> T + Send,
 {
     let cancel = Cancel::new();
-    let done = (std::sync::Mutex::new(false), std::sync::Condvar::new());
+    let slot = Slot::new();
     std::thread::scope(|scope| {
-        let (cancel, done) = (&cancel, &done);
-        let job = scope.spawn(move || {
-            let out = work(cancel);
-            *done
-                .0
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner) = true;
-            done.1.notify_all();
-            out
-        });
-        loop {
-            if let Err(interrupt) = py.check_signals() {
-                cancel.cancel();
-                let _ = py.detach(move || job.join());
-                return Err(interrupt);
-            }
-            let finished = py.detach(|| {
-                let guard = done
-                    .0
-                    .lock()
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                let (guard, _) = done
-                    .1
-                    .wait_timeout_while(guard, SIGNAL_CHECK, |d| !*d)
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                *guard
-            });
-            if finished {
-                break;
-            }
-        }
-        job.join().map_err(|_| {
-            crate::errors::InvalidInputError::new_err("identification thread panicked")
+        let (cancel, slot) = (&cancel, &slot);
+        scope.spawn(move || slot.fill(|| work(cancel)));
+        slot.wait(py, || {
+            cancel.cancel();
+            slot.take(py, None);
         })
     })
 }
@@ -74,48 +118,15 @@ where
     T: Send + 'static,
     F: FnOnce() -> T + Send + 'static,
 {
-    type Slot<T> = (
-        std::sync::Mutex<Option<std::thread::Result<T>>>,
-        std::sync::Condvar,
-    );
-    let slot: std::sync::Arc<Slot<T>> = Default::default();
+    let slot = std::sync::Arc::new(Slot::new());
     let theirs = slot.clone();
     std::thread::Builder::new()
         .name("starid-build".into())
-        .spawn(move || {
-            let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
-            *theirs
-                .0
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(out);
-            theirs.1.notify_all();
-        })
+        .spawn(move || theirs.fill(work))
         .map_err(|e| {
             crate::errors::InvalidInputError::new_err(format!("cannot start a thread: {e}"))
         })?;
-    loop {
-        py.check_signals()?;
-        let got = py.detach(|| {
-            let guard = slot
-                .0
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            let (mut guard, _) = slot
-                .1
-                .wait_timeout_while(guard, SIGNAL_CHECK, |d| d.is_none())
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            guard.take()
-        });
-        match got {
-            Some(Ok(out)) => return Ok(out),
-            Some(Err(_)) => {
-                return Err(crate::errors::InvalidInputError::new_err(
-                    "index build thread panicked",
-                ))
-            }
-            None => {}
-        }
-    }
+    slot.wait(py, || {})
 }
 
 /// The frames of a batch as the core takes them; a frame that cannot be read keeps its error,
