@@ -142,8 +142,9 @@ pub struct PyIdentification {
     spots: Spots,
     /// The sensor's width and height and the principal point, pixels (NaN when unknown).
     sensor: [f64; 4],
-    /// Seconds spent reading the image and extracting its spots (NaN for centroids given).
-    read_extract_s: [f64; 2],
+    /// Seconds spent reading the image and extracting its spots: set once, by the call that
+    /// read the image (unset, NaN, for centroids given).
+    read_extract_s: OnceLock<[f64; 2]>,
 }
 
 /// The spots a result was identified from, and the catalogue its ids name: what the per-spot
@@ -253,7 +254,7 @@ impl PyIdentification {
                 camera.principal_point_px[0],
                 camera.principal_point_px[1],
             ],
-            read_extract_s: [f64::NAN; 2],
+            read_extract_s: OnceLock::new(),
         }
     }
 
@@ -263,6 +264,10 @@ impl PyIdentification {
         self.spots.xy = xy;
         self.spots.magnitudes = magnitudes;
         self
+    }
+
+    fn times(&self) -> [f64; 2] {
+        self.read_extract_s.get().copied().unwrap_or([f64::NAN; 2])
     }
 
     fn radec_roll_deg(&self) -> (f64, f64, f64) {
@@ -452,58 +457,21 @@ impl PyIdentification {
     /// Seconds spent reading the image file (NaN for centroids or an array given).
     #[getter]
     fn read_s(&self) -> f64 {
-        self.read_extract_s[0]
+        self.times()[0]
     }
 
     /// Seconds spent extracting the image's spots (NaN for centroids given). ``time_s`` is the
     /// identification's own time.
     #[getter]
     fn extract_s(&self) -> f64 {
-        self.read_extract_s[1]
+        self.times()[1]
     }
 
-    /// The same result with the image's read and extraction times.
-    fn _with_times(&self, read_s: f64, extract_s: f64) -> Self {
-        Self {
-            status: self.status,
-            method: self.method,
-            message: self.message.clone(),
-            hinted: self.hinted,
-            verified: self.verified,
-            catalog: self.catalog.clone(),
-            ids: self.ids.clone(),
-            residuals_arcsec: self.residuals_arcsec.clone(),
-            rotation: self.rotation,
-            mirrored: self.mirrored,
-            false_match_probability: self.false_match_probability,
-            n_matched: self.n_matched,
-            centroid_sigma_px: self.centroid_sigma_px,
-            match_radius_arcsec: self.match_radius_arcsec,
-            hypotheses: self.hypotheses,
-            time_s: self.time_s,
-            fov_deg: self.fov_deg,
-            focal_px: self.focal_px,
-            focal_sigma_px: self.focal_sigma_px,
-            learned_mag_offset: self.learned_mag_offset,
-            k1: self.k1,
-            ids_array: PyOnceLock::new(),
-            residuals_array: PyOnceLock::new(),
-            radec_roll: OnceLock::new(),
-            spots: Spots {
-                xy: self.spots.xy.clone(),
-                magnitudes: self.spots.magnitudes.clone(),
-                catalog: self.spots.catalog.clone(),
-                index: self.spots.index.clone(),
-                stars: self
-                    .spots
-                    .stars
-                    .get()
-                    .cloned()
-                    .map_or_else(OnceLock::new, OnceLock::from),
-            },
-            sensor: self.sensor,
-            read_extract_s: [read_s, extract_s],
-        }
+    /// Record the image's read and extraction times (once: the call that read the image sets
+    /// them on the result it made); returns the result.
+    fn _with_times(slf: Bound<'_, Self>, read_s: f64, extract_s: f64) -> Bound<'_, Self> {
+        let _ = slf.get().read_extract_s.set([read_s, extract_s]);
+        slf
     }
 
     /// The sensor's ``(width, height)`` in pixels (NaN for a result that does not know it).
@@ -616,8 +584,8 @@ impl PyIdentification {
                 me.sensor[1],
                 me.sensor[2],
                 me.sensor[3],
-                me.read_extract_s[0],
-                me.read_extract_s[1],
+                me.times()[0],
+                me.times()[1],
             ],
             me.hypotheses,
             me.method.to_string(),
@@ -727,7 +695,11 @@ impl PyIdentification {
                 ..Spots::default()
             },
             sensor: [w, h, cx, cy],
-            read_extract_s: [read_s, extract_s],
+            read_extract_s: if read_s.is_nan() && extract_s.is_nan() {
+                OnceLock::new()
+            } else {
+                OnceLock::from([read_s, extract_s])
+            },
         })
     }
 
