@@ -8,7 +8,7 @@ import os
 import stat
 import tempfile
 from pathlib import Path
-from typing import Callable, Iterable, Union
+from typing import Callable, Iterable, Optional, Union
 
 from ._errors import InvalidInputError
 
@@ -34,13 +34,13 @@ def checked_input(path: PathLike, what: str = "file", max_bytes: int | None = No
     except FileNotFoundError:
         raise FileNotFoundError(f"{p}: no such {what}") from None
     if stat.S_ISDIR(st.st_mode):
-        raise IsADirectoryError(f"{p}: is a directory, not a {what}")
+        raise IsADirectoryError(f"{p}: is a directory; {what}s are read from regular files")
     if not stat.S_ISREG(st.st_mode):
-        raise InvalidInputError(f"{p}: not a regular file (a device, FIFO or socket), so not a {what}")
+        raise InvalidInputError(f"{p}: not a regular file (a device, FIFO or socket); {what}s are read from regular files")
     limit = MAX_FILE_BYTES if max_bytes is None else max_bytes
     if st.st_size > limit:
         raise InvalidInputError(
-            f"{p}: {st.st_size} bytes, over the {limit}-byte limit for a {what} (STARID_MAX_FILE_BYTES raises it)"
+            f"{p}: {st.st_size} bytes, over the {limit}-byte limit for {what}s (STARID_MAX_FILE_BYTES raises it)"
         )
     return p
 
@@ -53,6 +53,15 @@ def same_file(a: PathLike, b: PathLike) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
+def refuse_overwriting(outputs: Iterable[Optional[PathLike]], inputs: Iterable[Optional[PathLike]]) -> None:
+    """InvalidInputError when an output path names one of the inputs (None entries are
+    skipped)."""
+    sources = [src for src in inputs if src is not None]
+    for out in outputs:
+        if out is not None and any(same_file(out, src) for src in sources):
+            raise InvalidInputError(f"{out}: is an input too; refusing to overwrite it")
+
+
 def write_atomically(path: PathLike, write: Callable[[str], None], inputs: Iterable[PathLike] = ()) -> Path:
     """Write a file through ``write(temporary_path)`` and rename it to ``path``; returns the
     path written.
@@ -63,9 +72,7 @@ def write_atomically(path: PathLike, write: Callable[[str], None], inputs: Itera
     is replaced, never written through. A ``path`` that is one of ``inputs`` is refused with
     InvalidInputError before anything is written."""
     target = Path(os.fspath(path))
-    for src in inputs:
-        if same_file(target, src) or os.path.realpath(target) == os.path.realpath(src):
-            raise InvalidInputError(f"{target}: is an input too; refusing to overwrite it")
+    refuse_overwriting([target], inputs)
     if target.is_dir():
         raise IsADirectoryError(f"{target}: is a directory")
     folder = target.parent if str(target.parent) else Path(".")

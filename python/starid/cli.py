@@ -18,7 +18,7 @@ from ._starid import __version__
 from ._batch import identify_many
 from ._identify import METHODS, Camera, Identification, identify, simulate
 from ._errors import InvalidInputError
-from ._files import same_file, write_atomically
+from ._files import refuse_overwriting, write_atomically
 from .images import extract_centroids
 from .starlist import StarList, read_star_list
 
@@ -241,15 +241,6 @@ def _wrote(path: Path) -> None:
     print(f"wrote {path}", file=sys.stderr)
 
 
-def _refuse_overwriting(outputs: Sequence[Optional[Path]], inputs: Sequence[Optional[Path]]) -> None:
-    """InvalidInputError when an output path names one of the inputs (a star list, an image or
-    the catalogue), checked before any work is done."""
-    for out in outputs:
-        for src in inputs:
-            if out is not None and src is not None and (same_file(out, src) or out.resolve() == src.resolve()):
-                raise InvalidInputError(f"{out}: is an input too; refusing to overwrite it")
-
-
 _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
 
 
@@ -296,7 +287,7 @@ def _identify(args: argparse.Namespace) -> int:
     if size is None and len(images) < len(files):
         print("starid identify: --size is required for star lists (images give their own)", file=sys.stderr)
         return 2
-    _refuse_overwriting([args.wcs, args.annotate, args.corr], [*files, args.catalog])
+    refuse_overwriting([args.wcs, args.annotate, args.corr], [*files, args.catalog])
     fov_range = None if args.fov_range_deg is None else tuple(sorted(args.fov_range_deg))
     catalog = resolve_catalog(args.catalog)
     results: list[dict[str, Any]] = []
@@ -457,7 +448,7 @@ def _simulate(args: argparse.Namespace) -> int:
     if (args.output is None) == (args.image is None):
         print("starid simulate: give a star list to write, or --image OUT", file=sys.stderr)
         return 2
-    _refuse_overwriting([args.output, args.image], [args.catalog])
+    refuse_overwriting([args.output, args.image], [args.catalog])
     if args.image is not None:
         return _simulate_image(args)
     frame = simulate(
@@ -595,7 +586,7 @@ def _boresight(args: argparse.Namespace) -> int:
 def _guide(args: argparse.Namespace) -> int:
     from . import guide
 
-    _refuse_overwriting([getattr(args, "output", None)], [args.catalog])
+    refuse_overwriting([getattr(args, "output", None)], [args.catalog])
     cat = resolve_catalog(args.catalog)
     if args.guide_command == "compare":
         rows = guide.compare(
