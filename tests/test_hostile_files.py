@@ -139,13 +139,18 @@ def test_a_catalogue_rewritten_with_its_size_and_time_restored_is_read_again(tmp
     assert first.ids.tolist() == [1, 2] and again.ids.tolist() == [7, 8]
 
 
-def test_track_goes_on_past_a_bad_frame_and_names_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    seq = starid.simulate_sequence(None, 12.0, (512, 512), frames=4, frame_rate_hz=10.0, seed=3)
+def _sequence_files(folder: Path, prefix: str, frames: int, seed: int) -> list[str]:
+    """A simulated 10 Hz sequence (12°, 512 px) written as star lists PREFIX0.csv, PREFIX1.csv..."""
     files = []
-    for k, fr in enumerate(seq):
-        p = tmp_path / f"f{k}.csv"
+    for k, fr in enumerate(starid.simulate_sequence(None, 12.0, (512, 512), frames=frames, frame_rate_hz=10.0, seed=seed)):
+        p = folder / f"{prefix}{k}.csv"
         p.write_text("x,y\n" + "".join(f"{x},{y}\n" for x, y in fr.xy))
         files.append(str(p))
+    return files
+
+
+def test_track_goes_on_past_a_bad_frame_and_names_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    files = _sequence_files(tmp_path, "f", frames=4, seed=3)
     (tmp_path / "f1.csv").write_text("x,y\n1e6,1e6\n1,2\n3,4\n5,6\n")  # a spot far off the sensor
     assert main(["track", *files, "--fov-deg", "12", "--size", "512x512", "--frame-rate-hz", "10", "--json"]) == 2
     captured = capsys.readouterr()
@@ -156,12 +161,7 @@ def test_track_goes_on_past_a_bad_frame_and_names_it(tmp_path: Path, capsys: pyt
 
 
 def test_track_reports_a_time_that_is_not_a_number_and_goes_on(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    seq = starid.simulate_sequence(None, 12.0, (512, 512), frames=3, frame_rate_hz=10.0, seed=4)
-    files = []
-    for k, fr in enumerate(seq):
-        p = tmp_path / f"g{k}.csv"
-        p.write_text("x,y\n" + "".join(f"{x},{y}\n" for x, y in fr.xy))
-        files.append(str(p))
+    files = _sequence_files(tmp_path, "g", frames=3, seed=4)
     assert main(["track", *files, "--fov-deg", "12", "--size", "512x512", "--times", "0,nan,0.2", "--json"]) == 2
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [d["status"] for d in lines][1] == "invalid_input" and len(lines) == 3
