@@ -13,6 +13,7 @@ the Rust core; see ARCHITECTURE.md.
 """
 
 from . import guide, plot, pointing, tracking, wcs
+from .calibration import calibrate, load_camera, save_camera
 from ._catalog import MIN_STARS_PER_FIELD, Catalog, catalog_for
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._batch import identify_many
@@ -36,6 +37,9 @@ from .tracking import SequenceFrame, Tracker, TrackStep, simulate_sequence, trac
 __all__ = [
     "DEFAULT_FOV_RANGE_DEG",
     "Camera",
+    "calibrate",
+    "load_camera",
+    "save_camera",
     "MIN_STARS_PER_FIELD",
     "catalog_for",
     "Centroids",

@@ -566,7 +566,7 @@ def _radec_roll_quaternion(ra: float, dec: float, roll: float) -> list[float]:
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
     nan = float("nan")
-    floats = [nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan, nan, nan]
+    floats = [nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan, nan, nan, 0.0, 0.0, 0.0, 0.0]
     state: tuple[Any, ...] = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, floats, 0, "auto", message, (False, False, None, ([], None, [])))
     return Identification._from_state(state)
 
@@ -585,6 +585,7 @@ def simulate(
     drop_fraction: float = 0.0,
     mirrored: bool = False,
     radial_k1: float = 0.0,
+    camera: Optional[Any] = None,
 ) -> Frame:
     """Simulate the centroids a star tracker would see.
 
@@ -613,6 +614,9 @@ def simulate(
     radial_k1 : float
         Radial distortion: a star at normalised camera coordinates ``(u, v)`` is imaged at
         ``centre + f * (u, v) * (1 + radial_k1 * (u**2 + v**2))`` (negative: barrel).
+    camera : Camera, optional
+        The camera whole (its principal point and full distortion, a calibrated one), instead of
+        ``fov_deg``, ``image_size`` and ``radial_k1``.
 
     Returns
     -------
@@ -626,9 +630,16 @@ def simulate(
     >>> f.n_real > 10
     True
     """
-    w, h = _image_size(image_size)
-    fov = _fov(fov_deg)
-    cat = resolve_catalog_for(catalog, _camera(None, fov, (w, h)))
+    if camera is not None:
+        cam = _camera(camera, None, None)
+        if radial_k1 != 0.0:
+            raise InvalidInputError("give the distortion in the camera, not radial_k1 beside it")
+        (w, h), fov = cam.image_size, cam.fov_deg
+    else:
+        w, h = _image_size(image_size)
+        fov = _fov(fov_deg)
+        cam = _camera(None, fov, (w, h))
+    cat = resolve_catalog_for(catalog, cam)
     if seed is None:
         seed = secrets.randbits(63)
     seed = int(seed)
@@ -653,6 +664,7 @@ def simulate(
         float(drop_fraction),
         bool(mirrored),
         float(radial_k1),
+        camera,
     )
     frame: Frame = _frame(d, fov, (w, h), seed)
     return frame

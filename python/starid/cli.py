@@ -1,4 +1,4 @@
-"""The ``starid`` command: identify star lists, simulate frames, describe catalogues."""
+"""The ``starid`` command: identify star lists, calibrate a camera, simulate frames, describe catalogues."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import numpy as np
 from ._catalog import Catalog, resolve_catalog
 from ._starid import __version__
 from ._batch import identify_many
+from .calibration import calibrate, load_camera
 from ._identify import METHODS, Camera, Identification, identify, simulate
 from ._errors import InvalidInputError
 from ._files import refuse_overwriting, write_atomically
@@ -57,6 +58,8 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--fov-range-deg", type=float, nargs=2, metavar=("LO", "HI"),
                        help="range searched when the field of view is unknown (default 8 25)")
     ident.add_argument("--size", type=_size, help="sensor size WIDTHxHEIGHT in pixels, e.g. 512x512")
+    ident.add_argument("--camera", type=Path, metavar="FILE",
+                       help="the camera a calibration saved ('starid calibrate -o FILE'), instead of --fov-deg and --size")
     ident.add_argument("--catalog", type=Path, help="catalogue file (CSV/TSV/text/.mat); default: bundled Hipparcos")
     ident.add_argument("--sigma-px", type=float, help="centroid noise, 1 sigma in pixels (default: adaptive)")
     ident.add_argument("--max-false-prob", type=float, default=1e-3, help="largest accepted false-match bound")
@@ -94,6 +97,19 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--false-stars", type=int, default=0)
     sim.add_argument("--drop-fraction", type=float, default=0.0)
     sim.add_argument("--mirrored", action="store_true")
+
+    cal = sub.add_parser("calibrate", help="fit one camera (focal length, principal point, distortion) to many frames of it")
+    cal.add_argument("files", nargs="+", type=Path, help="star lists or images of one camera")
+    cal.add_argument("--fov-deg", type=float, help="nominal field of view across the image width, degrees")
+    cal.add_argument("--size", type=_size, help="sensor size WIDTHxHEIGHT in pixels (images give their own)")
+    cal.add_argument("--camera", type=Path, metavar="FILE", help="start from a saved camera instead of --fov-deg")
+    cal.add_argument("--catalog", type=Path, help="catalogue file; default: bundled Hipparcos")
+    cal.add_argument("--radial-terms", type=int, choices=[0, 1, 2, 3], help="radial terms k1..k3 (default: chosen by the data)")
+    cal.add_argument("--decentering", choices=["yes", "no"], help="fit p1, p2 (default: chosen by the data)")
+    cal.add_argument("--fixed-principal-point", action="store_true", help="hold the principal point")
+    cal.add_argument("--clip-sigma", type=float, default=3.0, help="outlier clipping threshold in sigma (0: none)")
+    cal.add_argument("-o", "--output", type=Path, metavar="FILE", help="write the camera as JSON (for --camera and starid.load_camera)")
+    cal.add_argument("--json", action="store_true", help="print JSON instead of text")
 
     sub.add_parser("methods", help="list the identification methods (--method of identify)")
     info = sub.add_parser("catalog", help="describe a catalogue and its pair index")
@@ -266,9 +282,76 @@ def _read_spots(path: Path) -> tuple[StarList, Optional[tuple[float, float]], tu
         raise ValueError(msg if str(path) in msg else f"{path}: {msg}") from None
 
 
+def _geometry(camera: Optional[Camera], fov: Optional[float], size: Any) -> dict[str, Any]:
+    """The camera arguments of an identification: a saved camera, or the field and size."""
+    return {"camera": camera} if camera is not None else {"fov_deg": fov, "image_size": size}
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    files: list[Path] = list(args.files)
+    refuse_overwriting([args.output], [*files, args.catalog, args.camera])
+    star_lists, sizes = [], set()
+    for path in files:
+        stars, image_size, _ = _read_spots(path)
+        star_lists.append(stars)
+        sizes.add(image_size if image_size is not None else args.size)
+    if args.camera is not None:
+        if args.fov_deg is not None:
+            print("starid calibrate: --camera replaces --fov-deg", file=sys.stderr)
+            return 2
+        start = load_camera(args.camera)
+    else:
+        if args.fov_deg is None:
+            print("starid calibrate: give --fov-deg (the nominal field) or --camera", file=sys.stderr)
+            return 2
+        if None in sizes:
+            print("starid calibrate: --size is required for star lists (images give their own)", file=sys.stderr)
+            return 2
+        if len(sizes) != 1:
+            print(f"starid calibrate: the frames are of several sizes ({sorted(sizes)}): one camera at a time", file=sys.stderr)
+            return 2
+        start = Camera(sizes.pop(), args.fov_deg)
+    mags = [s.magnitudes for s in star_lists]
+    result = calibrate(
+        [s.xy for s in star_lists],
+        camera=start,
+        catalog=resolve_catalog(args.catalog),
+        magnitudes=None if any(m is None for m in mags) else mags,
+        mag_offset=None,
+        principal_point=not args.fixed_principal_point,
+        radial_terms=args.radial_terms,
+        decentering=None if args.decentering is None else args.decentering == "yes",
+        clip_sigma=args.clip_sigma,
+    )
+    if args.output is not None:
+        result.save(args.output)
+        _wrote(args.output)
+    cam = result.camera
+    if args.json:
+        print(json.dumps({"camera": cam.to_dict(), **result.to_dict()}, indent=2))
+        return 0
+    before, after, total = result.identified or (0, 0, len(files))
+    print(f"frames identified: {before}/{total} with the starting camera, {after}/{total} with the calibrated one")
+    print(f"matches: {result.n_inliers} kept, {result.n_clipped} clipped as outliers")
+    print(f"RMS residual per axis: {result.rms_before_px:.3f} px before, {result.rms_px:.3f} px after")
+    values = {"focal_length_px": cam.focal_length_px, "cx": cam.principal_point[0], "cy": cam.principal_point[1],
+              "k1": cam.k1, "k2": cam.k2, "k3": cam.k3, "p1": cam.p1, "p2": cam.p2}
+    sig = result.sigmas
+    for name, v in values.items():
+        print(f"  {name:<16} {v:+.6g}" + (f"  +- {sig[name]:.2g}" if name in sig else "  (not fitted)"))
+    return 0
+
+
 def _identify(args: argparse.Namespace) -> int:
     files: list[Path] = list(args.files)
     fov, size = args.fov_deg, args.size
+    camera = None
+    if args.camera is not None:
+        if fov is not None or size is not None or args.fov_range_deg is not None:
+            print("starid identify: --camera replaces --fov-deg, --size and --fov-range-deg", file=sys.stderr)
+            return 2
+        camera = load_camera(args.camera)
+        size = camera.image_size
     if args.example:
         files.append(EXAMPLE_FRAME)
         fov = EXAMPLE_FOV_DEG if fov is None else fov
@@ -318,8 +401,7 @@ def _identify(args: argparse.Namespace) -> int:
         return identify(
             stars.xy,
             catalog=catalog,
-            fov_deg=fov,
-            image_size=sizes.get(k, size),
+            **_geometry(camera, fov, sizes.get(k, size)),
             fov_range_deg=fov_range,
             magnitudes=None if args.no_magnitudes else stars.magnitudes,
             centroid_sigma_px=args.sigma_px,
@@ -332,7 +414,7 @@ def _identify(args: argparse.Namespace) -> int:
         )
 
     solved: dict[int, Identification] = {}
-    if fov is not None and fov_range is None and len(files) - len(unreadable) >= 3:
+    if (fov is not None or camera is not None) and fov_range is None and len(files) - len(unreadable) >= 3:
         # Many frames of one camera: identified in batches on every core (Rust threads), with a
         # progress bar between batches; one batch per sensor size and kind of file, so that the
         # frames learn their magnitudes' zero point together (an image's is always unknown).
@@ -346,8 +428,7 @@ def _identify(args: argparse.Namespace) -> int:
                 batch = identify_many(
                     [star_lists[k].xy for k in chunk],
                     catalog=catalog,
-                    fov_deg=fov,
-                    image_size=group_size,
+                    **_geometry(camera, fov, group_size),
                     magnitudes=None if args.no_magnitudes else [star_lists[k].magnitudes for k in chunk],
                     centroid_sigma_px=args.sigma_px,
                     max_false_match_prob=args.max_false_prob,
@@ -701,6 +782,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _boresight(args)
         if args.command == "track":
             return _track(args)
+        if args.command == "calibrate":
+            return _calibrate(args)
         if args.command == "methods":
             width = max(map(len, METHODS))
             for name, text in METHODS.items():

@@ -98,12 +98,16 @@ pub fn rotation_angle_between(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
     2.0 * q.imag().norm().atan2(q.w.abs())
 }
 
-/// The camera model every part of starid uses (identification, refinement, the simulator, WCS):
-/// a pinhole of focal length `f` (pixels) with principal point `c` and one radial distortion
-/// term. A direction `(X, Y, Z)` in the camera frame (+z along the boresight, +x along the
-/// pixel rows, +y down the columns) is imaged at
+/// The camera model every part of starid uses (identification, refinement, calibration, the
+/// simulator, WCS): a pinhole of focal length `f` (pixels) with principal point `c` and
+/// Brown–Conrady distortion (radial `k1, k2, k3`, decentering `p1, p2`). A direction
+/// `(X, Y, Z)` in the camera frame (+z along the boresight, +x along the pixel rows, +y down the
+/// columns) is imaged at `c + f · (u_d, v_d)`, with `(u, v) = (X / Z, Y / Z)`, `r² = u² + v²`,
 ///
-/// `c + f · (u, v) · (1 + k1 · (u² + v²))`, with `(u, v) = (X / Z, Y / Z)`.
+/// `u_d = u (1 + k1 r² + k2 r⁴ + k3 r⁶) + 2 p1 u v + p2 (r² + 2 u²)`,
+/// `v_d = v (1 + k1 r² + k2 r⁴ + k3 r⁶) + p1 (r² + 2 v²) + 2 p2 u v`.
+///
+/// With only `k1` (the common case) this is `c + f · (u, v) · (1 + k1 · r²)`.
 ///
 /// Pixels follow the project's convention: x right, y down, origin at the sensor's top-left
 /// corner, so the default principal point of a W×H sensor is `(W/2, H/2)`.
@@ -129,10 +133,23 @@ pub struct Camera {
     pub principal_point_px: [f64; 2],
     /// Radial distortion on normalised coordinates (negative: barrel); 0 by default.
     pub k1: f64,
+    /// Radial distortion of order r⁴; 0 by default.
+    pub k2: f64,
+    /// Radial distortion of order r⁶; 0 by default.
+    pub k3: f64,
+    /// Decentering (tangential) distortion along y; 0 by default.
+    pub p1: f64,
+    /// Decentering (tangential) distortion along x; 0 by default.
+    pub p2: f64,
 }
 
-/// Largest |k1| a camera accepts.
+/// Largest |k1| (and |k2|, |k3|) a camera accepts.
 pub const MAX_ABS_K1: f64 = 10.0;
+/// Largest |p1|, |p2| a camera accepts.
+pub const MAX_ABS_P: f64 = 1.0;
+
+/// The distortion terms of a [`Camera`] beyond `k1`: `[k2, k3, p1, p2]`.
+pub type HigherDistortion = [f64; 4];
 
 impl Camera {
     /// Camera whose full field of view across the width is `fov_rad`.
@@ -179,6 +196,10 @@ impl Camera {
             focal_length_px,
             principal_point_px: [0.5 * width_px, 0.5 * height_px],
             k1: 0.0,
+            k2: 0.0,
+            k3: 0.0,
+            p1: 0.0,
+            p2: 0.0,
         })
     }
 
@@ -230,6 +251,68 @@ impl Camera {
         Ok(self)
     }
 
+    /// The same camera with the distortion terms beyond `k1`: `[k2, k3, p1, p2]` (see
+    /// [`Camera`]).
+    ///
+    /// # Errors
+    /// `InvalidInput` when a term is not finite, |k2| or |k3| > 10, or |p1| or |p2| > 1.
+    ///
+    /// # Example
+    /// ```
+    /// let cam = starid_core::Camera::from_focal_length(1000.0, 1000.0, 1000.0).unwrap();
+    /// let lens = cam.with_k1(-0.1).unwrap().with_higher_distortion([0.02, 0.0, 1e-3, -5e-4]).unwrap();
+    /// let v = lens.pixel_to_cam(950.0, 900.0, false);
+    /// let (x, y) = lens.cam_to_pixel(&v).unwrap();
+    /// assert!((x - 950.0).abs() < 1e-9 && (y - 900.0).abs() < 1e-9);
+    /// ```
+    pub fn with_higher_distortion(mut self, terms: HigherDistortion) -> Result<Self> {
+        let [k2, k3, p1, p2] = terms;
+        let radial_ok = |k: f64| k.is_finite() && k.abs() <= MAX_ABS_K1;
+        let decentering_ok = |p: f64| p.is_finite() && p.abs() <= MAX_ABS_P;
+        if !(radial_ok(k2) && radial_ok(k3) && decentering_ok(p1) && decentering_ok(p2)) {
+            return Err(Error::invalid_input(format!(
+                "distortion must be finite with |k2|, |k3| <= {MAX_ABS_K1} and |p1|, |p2| <= {MAX_ABS_P}, \
+                 got k2={k2}, k3={k3}, p1={p1}, p2={p2}"
+            )));
+        }
+        (self.k2, self.k3, self.p1, self.p2) = (k2, k3, p1, p2);
+        Ok(self)
+    }
+
+    /// The distortion terms beyond `k1`: `[k2, k3, p1, p2]`.
+    pub fn higher_distortion(&self) -> HigherDistortion {
+        [self.k2, self.k3, self.p1, self.p2]
+    }
+
+    /// Whether the camera's only distortion (if any) is `k1`.
+    #[inline]
+    pub fn is_k1_only(&self) -> bool {
+        self.k2 == 0.0 && self.k3 == 0.0 && self.p1 == 0.0 && self.p2 == 0.0
+    }
+
+    /// Distorted normalised coordinates `(u_d, v_d)` of ideal ones `(u, v)` and the Jacobian
+    /// `[[∂u_d/∂u, ∂u_d/∂v], [∂v_d/∂u, ∂v_d/∂v]]` (see [`Camera`]).
+    #[inline]
+    pub fn distort(&self, u: f64, v: f64) -> ((f64, f64), [[f64; 2]; 2]) {
+        let r2 = u * u + v * v;
+        let radial = 1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3));
+        let d_radial = self.k1 + r2 * (2.0 * self.k2 + 3.0 * r2 * self.k3);
+        let (p1, p2) = (self.p1, self.p2);
+        let ud = u * radial + 2.0 * p1 * u * v + p2 * (r2 + 2.0 * u * u);
+        let vd = v * radial + p1 * (r2 + 2.0 * v * v) + 2.0 * p2 * u * v;
+        let j = [
+            [
+                radial + 2.0 * u * u * d_radial + 2.0 * p1 * v + 6.0 * p2 * u,
+                2.0 * u * v * d_radial + 2.0 * p1 * u + 2.0 * p2 * v,
+            ],
+            [
+                2.0 * u * v * d_radial + 2.0 * p1 * u + 2.0 * p2 * v,
+                radial + 2.0 * v * v * d_radial + 6.0 * p1 * v + 2.0 * p2 * u,
+            ],
+        ];
+        ((ud, vd), j)
+    }
+
     /// Whether the principal point is the sensor centre and there is no distortion: the case
     /// the identification's fast paths assume.
     ///
@@ -239,7 +322,9 @@ impl Camera {
     /// assert!(cam.is_ideal() && !cam.with_k1(0.01).unwrap().is_ideal());
     /// ```
     pub fn is_ideal(&self) -> bool {
-        self.k1 == 0.0 && self.principal_point_px == [0.5 * self.width_px, 0.5 * self.height_px]
+        self.k1 == 0.0
+            && self.is_k1_only()
+            && self.principal_point_px == [0.5 * self.width_px, 0.5 * self.height_px]
     }
 
     /// Full field of view across the width, radians (of the pinhole, ignoring distortion).
@@ -290,6 +375,13 @@ impl Camera {
     /// ```
     #[inline]
     pub fn normalized_to_pixel(&self, u: f64, v: f64) -> (f64, f64) {
+        if !self.is_k1_only() {
+            let ((ud, vd), _) = self.distort(u, v);
+            return (
+                self.principal_point_px[0] + self.focal_length_px * ud,
+                self.principal_point_px[1] + self.focal_length_px * vd,
+            );
+        }
         let g = 1.0 + self.k1 * (u * u + v * v);
         let f = self.focal_length_px * g;
         (
@@ -314,6 +406,9 @@ impl Camera {
             (x - self.principal_point_px[0]) / self.focal_length_px,
             (y - self.principal_point_px[1]) / self.focal_length_px,
         );
+        if !self.is_k1_only() {
+            return self.undistort(du, dv);
+        }
         if self.k1 == 0.0 {
             return (du, dv);
         }
@@ -337,6 +432,27 @@ impl Camera {
         }
         let s = r / d;
         (du * s, dv * s)
+    }
+
+    /// Ideal normalised coordinates of distorted ones, by Newton's method on the full model.
+    fn undistort(&self, ud: f64, vd: f64) -> (f64, f64) {
+        let (mut u, mut v) = (ud, vd);
+        for _ in 0..30 {
+            let ((fu, fv), j) = self.distort(u, v);
+            let (ru, rv) = (fu - ud, fv - vd);
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            if det.abs() < 1e-12 {
+                break;
+            }
+            let su = (j[1][1] * ru - j[0][1] * rv) / det;
+            let sv = (j[0][0] * rv - j[1][0] * ru) / det;
+            u -= su;
+            v -= sv;
+            if su.abs().max(sv.abs()) < 1e-15 * (1.0 + u.abs().max(v.abs())) {
+                break;
+            }
+        }
+        (u, v)
     }
 
     /// Unit vector in the camera frame of pixel `(x, y)`. `mirrored` reads the pixel of a

@@ -55,6 +55,7 @@
 #![deny(missing_docs)]
 
 pub mod attitude;
+pub mod calibrate;
 pub mod catalog;
 pub mod error;
 pub mod extract;

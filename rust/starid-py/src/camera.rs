@@ -1,4 +1,5 @@
-//! `Camera`: the core's camera model (size, focal length, principal point, k1) in Python.
+//! `Camera`: the core's camera model (size, focal length, principal point, Brown–Conrady
+//! distortion) in Python.
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
@@ -7,11 +8,14 @@ use starid_core::Camera;
 
 use crate::errors::{InvalidInputError, PyStaridError};
 
-/// A camera: sensor size, focal length, principal point and radial distortion `k1`.
+/// A camera: sensor size, focal length, principal point and Brown–Conrady distortion.
 ///
 /// A direction ``(X, Y, Z)`` in the camera frame (+z along the boresight) is imaged at
-/// ``c + f * (u, v) * (1 + k1 * (u**2 + v**2))`` with ``(u, v) = (X/Z, Y/Z)``, pixels x right,
-/// y down, origin at the sensor's top-left corner.
+/// ``c + f * (u_d, v_d)`` with ``(u, v) = (X/Z, Y/Z)``, ``r2 = u**2 + v**2``,
+/// ``u_d = u * (1 + k1 r2 + k2 r2**2 + k3 r2**3) + 2 p1 u v + p2 (r2 + 2 u**2)`` and
+/// ``v_d = v * (1 + k1 r2 + k2 r2**2 + k3 r2**3) + p1 (r2 + 2 v**2) + 2 p2 u v``; pixels x
+/// right, y down, origin at the sensor's top-left corner. ``starid.calibrate`` fits one from
+/// many frames; ``save`` and ``starid.load_camera`` keep it in a small JSON file.
 #[pyclass(frozen, eq, name = "Camera", module = "starid._starid")]
 #[derive(Clone, PartialEq)]
 pub struct PyCamera {
@@ -24,13 +28,18 @@ type NewArgs<'py> = (((f64, f64),), Bound<'py, pyo3::types::PyDict>);
 #[pymethods]
 impl PyCamera {
     #[new]
-    #[pyo3(signature = (image_size, fov_deg=None, *, focal_length_px=None, principal_point=None, k1=0.0))]
+    #[pyo3(signature = (image_size, fov_deg=None, *, focal_length_px=None, principal_point=None, k1=0.0, k2=0.0, k3=0.0, p1=0.0, p2=0.0))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         image_size: (f64, f64),
         fov_deg: Option<f64>,
         focal_length_px: Option<f64>,
         principal_point: Option<(f64, f64)>,
         k1: f64,
+        k2: f64,
+        k3: f64,
+        p1: f64,
+        p2: f64,
     ) -> PyResult<Self> {
         let (w, h) = image_size;
         let cam = match (fov_deg, focal_length_px) {
@@ -48,7 +57,10 @@ impl PyCamera {
             None => cam,
         };
         Ok(Self {
-            inner: cam.with_k1(k1).map_err(PyStaridError)?,
+            inner: cam
+                .with_k1(k1)
+                .and_then(|c| c.with_higher_distortion([k2, k3, p1, p2]))
+                .map_err(PyStaridError)?,
         })
     }
 
@@ -84,6 +96,48 @@ impl PyCamera {
     #[getter]
     fn k1(&self) -> f64 {
         self.inner.k1
+    }
+    /// Radial distortion of order r**4.
+    #[getter]
+    fn k2(&self) -> f64 {
+        self.inner.k2
+    }
+    /// Radial distortion of order r**6.
+    #[getter]
+    fn k3(&self) -> f64 {
+        self.inner.k3
+    }
+    /// Decentering distortion ``p1``.
+    #[getter]
+    fn p1(&self) -> f64 {
+        self.inner.p1
+    }
+    /// Decentering distortion ``p2``.
+    #[getter]
+    fn p2(&self) -> f64 {
+        self.inner.p2
+    }
+
+    /// The camera as a dict of plain numbers (``Camera(**d)`` makes it again, with
+    /// ``image_size`` a tuple): ``image_size``, ``focal_length_px``, ``principal_point``,
+    /// ``k1``, ``k2``, ``k3``, ``p1``, ``p2``.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("image_size", self.image_size())?;
+        d.set_item("focal_length_px", self.inner.focal_length_px)?;
+        d.set_item("principal_point", self.principal_point())?;
+        for (name, v) in self.distortion() {
+            d.set_item(name, v)?;
+        }
+        Ok(d)
+    }
+
+    /// Save the camera to a small JSON file (see ``starid.save_camera``).
+    fn save(slf: &Bound<'_, Self>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        slf.py()
+            .import("starid.calibration")?
+            .call_method1("save_camera", (slf, path))?;
+        Ok(())
     }
 
     /// Pixels ``(N, 2)`` of camera-frame directions ``(N, 3)``; NaN for directions behind it.
@@ -137,16 +191,15 @@ impl PyCamera {
             .into_pyarray(py))
     }
 
-    /// Pickling and copying: ``Camera(image_size, focal_length_px=..., principal_point=..., k1=...)``.
+    /// Pickling and copying: ``Camera(image_size, focal_length_px=..., principal_point=...,
+    /// k1=..., k2=..., k3=..., p1=..., p2=...)``.
     fn __getnewargs_ex__<'py>(&self, py: Python<'py>) -> PyResult<NewArgs<'py>> {
-        let d = pyo3::types::PyDict::new(py);
-        d.set_item("focal_length_px", self.inner.focal_length_px)?;
-        d.set_item("principal_point", self.principal_point())?;
-        d.set_item("k1", self.inner.k1)?;
+        let d = self.to_dict(py)?;
+        d.del_item("image_size")?;
         Ok(((self.image_size(),), d))
     }
 
-    fn __repr__(&self) -> String {
+    pub(crate) fn __repr__(&self) -> String {
         let c = &self.inner;
         let mut s = format!(
             "Camera(image_size=({}, {}), fov_deg={:.6}, focal_length_px={:.4}",
@@ -157,10 +210,29 @@ impl PyCamera {
         );
         if !c.is_ideal() {
             s += &format!(
-                ", principal_point=({}, {}), k1={}",
-                c.principal_point_px[0], c.principal_point_px[1], c.k1
+                ", principal_point=({}, {})",
+                c.principal_point_px[0], c.principal_point_px[1]
             );
+            for (name, v) in self.distortion() {
+                if v != 0.0 || name == "k1" {
+                    s += &format!(", {name}={v}");
+                }
+            }
         }
         s + ")"
+    }
+}
+
+impl PyCamera {
+    /// The distortion terms by name.
+    fn distortion(&self) -> [(&'static str, f64); 5] {
+        let c = &self.inner;
+        [
+            ("k1", c.k1),
+            ("k2", c.k2),
+            ("k3", c.k3),
+            ("p1", c.p1),
+            ("p2", c.p2),
+        ]
     }
 }

@@ -7,6 +7,7 @@
 #![allow(clippy::too_many_arguments)]
 
 mod batch;
+mod calibration;
 mod camera;
 mod catalog;
 mod convert;
@@ -485,7 +486,7 @@ fn identify_many<'py>(
 #[pyfunction]
 #[pyo3(signature = (catalog, fov_deg, width_px, height_px, seed, attitude_deg=None, mag_limit=None,
                     noise_px=0.0, mag_noise=0.0, false_stars=0, drop_fraction=0.0, mirrored=false,
-                    radial_k1=0.0))]
+                    radial_k1=0.0, camera=None))]
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -502,10 +503,15 @@ fn simulate<'py>(
     drop_fraction: f64,
     mirrored: bool,
     radial_k1: f64,
+    camera: Option<PyRef<'py, PyCamera>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let cam = camera(fov_deg, width_px, height_px)?
-        .with_k1(radial_k1)
-        .map_err(|e| InvalidInputError::new_err(format!("radial_k1: {e}")))?;
+    let cam = match camera {
+        // A camera given whole (a calibrated one, with its distortion).
+        Some(c) => c.inner,
+        None => self::camera(fov_deg, width_px, height_px)?
+            .with_k1(radial_k1)
+            .map_err(|e| InvalidInputError::new_err(format!("radial_k1: {e}")))?,
+    };
     let r = match attitude_deg {
         None => None,
         Some((ra, dec, roll)) => {
@@ -581,6 +587,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_class::<PyCatalog>()?;
     m.add_class::<PyCamera>()?;
+    m.add_class::<calibration::PyCalibration>()?;
+    m.add_function(wrap_pyfunction!(calibration::calibrate_camera, m)?)?;
     m.add_class::<tracking::PyTracker>()?;
     m.add_function(wrap_pyfunction!(tracking::identify_hinted, m)?)?;
     m.add_function(wrap_pyfunction!(tracking::simulate_sequence, m)?)?;

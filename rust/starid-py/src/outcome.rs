@@ -134,6 +134,8 @@ pub struct PyIdentification {
     focal_sigma_px: f64,
     learned_mag_offset: Option<f64>,
     k1: f64,
+    /// The camera's distortion beyond `k1`: `[k2, k3, p1, p2]`.
+    higher: [f64; 4],
     ids_array: PyOnceLock<Py<PyArray1<i64>>>,
     residuals_array: PyOnceLock<Py<PyArray1<f64>>>,
     /// `(ra, dec, roll)` in degrees, computed on the first read of any of them.
@@ -240,6 +242,7 @@ impl PyIdentification {
             focal_sigma_px,
             learned_mag_offset: id.learned_mag_offset,
             k1: camera.k1,
+            higher: camera.higher_distortion(),
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
             radec_roll: OnceLock::new(),
@@ -298,7 +301,7 @@ type State = (
     bool,
     f64,
     usize,
-    [f64; 14],
+    [f64; 18],
     usize,
     String,
     Option<String>,
@@ -487,6 +490,20 @@ impl PyIdentification {
         (self.sensor[2], self.sensor[3])
     }
 
+    /// The camera the solution was found with (the given one, with the focal length and ``k1``
+    /// the focal check found where it replaced them; the one estimated for an unknown field),
+    /// or None when no focal length is known.
+    #[getter]
+    fn camera(&self) -> Option<crate::camera::PyCamera> {
+        let [w, h, cx, cy] = self.sensor;
+        let cam = starid_core::Camera::from_focal_length(self.focal_px, w, h)
+            .and_then(|c| c.with_principal_point(cx, cy))
+            .and_then(|c| c.with_k1(self.k1))
+            .and_then(|c| c.with_higher_distortion(self.higher))
+            .ok()?;
+        Some(crate::camera::PyCamera { inner: cam })
+    }
+
     /// The FITS WCS keywords of the solution (TAN, or TAN-SIP with lens distortion), as a dict:
     /// see :func:`starid.wcs.wcs_header`.
     fn wcs_header<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
@@ -586,6 +603,10 @@ impl PyIdentification {
                 me.sensor[3],
                 me.times()[0],
                 me.times()[1],
+                me.higher[0],
+                me.higher[1],
+                me.higher[2],
+                me.higher[3],
             ],
             me.hypotheses,
             me.method.to_string(),
@@ -661,7 +682,7 @@ impl PyIdentification {
         } else {
             stars
         };
-        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy, read_s, extract_s] =
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy, read_s, extract_s, k2, k3, p1, p2] =
             floats;
         Ok(Self {
             status,
@@ -685,6 +706,7 @@ impl PyIdentification {
             focal_sigma_px,
             learned_mag_offset: (!learned.is_nan()).then_some(learned),
             k1,
+            higher: [k2, k3, p1, p2],
             ids_array: PyOnceLock::new(),
             residuals_array: PyOnceLock::new(),
             radec_roll: OnceLock::new(),

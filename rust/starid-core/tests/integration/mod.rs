@@ -1,3 +1,4 @@
+mod calibrate;
 mod focal_check;
 mod geometry;
 mod identify;
