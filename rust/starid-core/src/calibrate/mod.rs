@@ -238,27 +238,43 @@ pub fn calibrate(
     let frames = prepared(frames, start)?;
     let radial: Vec<usize> = config.radial_terms.map_or(vec![3, 2, 1], |n| vec![n]);
     let decentering: Vec<bool> = config.decentering.map_or(vec![true, false], |d| vec![d]);
-    let mut fitted: Vec<Calibration> = Vec::new();
-    let mut first_error = None;
-    for &d in &decentering {
-        for &n in &radial {
-            let model = CalibrationConfig {
+    let models: Vec<CalibrationConfig> = decentering
+        .iter()
+        .flat_map(|&d| {
+            radial.iter().map(move |&n| CalibrationConfig {
                 radial_terms: Some(n),
                 decentering: Some(d),
                 ..*config
-            };
-            match fit_model(&frames, start, &model) {
-                Ok(c) => fitted.push(c),
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
+            })
+        })
+        .collect();
+    // The candidate models are independent fits: on every core where there are several.
+    #[cfg(feature = "parallel")]
+    let outcomes: Vec<Result<Calibration>> = {
+        use rayon::prelude::*;
+        models
+            .par_iter()
+            .map(|m| fit_model(&frames, start, m))
+            .collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let outcomes: Vec<Result<Calibration>> =
+        models.iter().map(|m| fit_model(&frames, start, m)).collect();
+    let mut fitted: Vec<Calibration> = Vec::new();
+    let mut first_error = None;
+    for outcome in outcomes {
+        match outcome {
+            Ok(c) => fitted.push(c),
+            Err(e) => {
+                first_error.get_or_insert(e);
             }
         }
     }
     if fitted.len() <= 1 {
-        return fitted
+        let chosen = fitted
             .pop()
-            .ok_or_else(|| first_error.expect("a model was tried"));
+            .ok_or_else(|| first_error.expect("a model was tried"))?;
+        return with_rms_before(&frames, start, config, chosen);
     }
     // Costs on a common scale: the richest model's robust variance, each match capped.
     let richest = fitted
@@ -277,10 +293,34 @@ pub fn calibrate(
             .sum();
         cost + c.intrinsics.len() as f64 * 2.0 * (n_obs as f64).ln().ln()
     };
-    Ok(fitted
+    let chosen = fitted
         .into_iter()
         .min_by(|a, b| bic(a).total_cmp(&bic(b)))
-        .expect("models"))
+        .expect("models");
+    with_rms_before(&frames, start, config, chosen)
+}
+
+/// The calibration with its RMS before: the same inliers with the starting camera, each frame's
+/// attitude fitted alone.
+fn with_rms_before(
+    frames: &[CalibrationFrame],
+    start: &Camera,
+    config: &CalibrationConfig,
+    mut cal: Calibration,
+) -> Result<Calibration> {
+    let before = fit(
+        frames,
+        &as_weights(&cal.inliers),
+        State {
+            camera: *start,
+            attitudes: frames.iter().map(|f| f.attitude).collect(),
+        },
+        &[],
+        config.max_iterations,
+    )?;
+    cal.iterations += before.iterations;
+    cal.rms_before_px = rms(&residuals(frames, &before.state), &cal.inliers);
+    Ok(cal)
 }
 
 /// One model's fit: the robust start, clipping rounds, the covariance.
@@ -312,7 +352,9 @@ fn fit_model(
         // so the fit is first reweighted by a Cauchy loss at the robust σ.
         let mut weights: Vec<Vec<f64>> = frames.iter().map(|f| vec![1.0; f.pixels.len()]).collect();
         for _ in 0..ROBUST_ROUNDS {
-            let fit = fit(&frames, &weights, state, &intrinsics, config.max_iterations)?;
+            // The weights change from round to round: no round needs to converge fully.
+            let steps = config.max_iterations.min(ROBUST_STEPS);
+            let fit = fit(&frames, &weights, state, &intrinsics, steps)?;
             iterations += fit.iterations;
             state = fit.state;
             let residuals = residuals(&frames, &state);
@@ -356,18 +398,6 @@ fn fit_model(
         masks = next;
     }
     let camera = checked(&state.camera)?;
-    // The same inliers with the starting camera, each frame's attitude fitted alone.
-    let before = fit(
-        &frames,
-        &as_weights(&masks),
-        State {
-            camera: *start,
-            attitudes: frames.iter().map(|f| f.attitude).collect(),
-        },
-        &[],
-        config.max_iterations,
-    )?;
-    iterations += before.iterations;
     let residuals_px = residuals(&frames, &state);
     let covariance = covariance(&frames, &masks, &state, &intrinsics, n_params);
     let frame_rms_px = residuals_px
@@ -380,7 +410,7 @@ fn fit_model(
         attitudes: state.attitudes,
         intrinsics,
         covariance,
-        rms_before_px: rms(&residuals(&frames, &before.state), &masks),
+        rms_before_px: f64::NAN,
         rms_px: rms(&residuals_px, &masks),
         frame_rms_px,
         residuals_px,
@@ -392,6 +422,8 @@ fn fit_model(
 
 /// Rounds of the Cauchy-weighted start.
 const ROBUST_ROUNDS: usize = 6;
+/// Levenberg–Marquardt steps per round of the weighted start at most.
+const ROBUST_STEPS: usize = 12;
 /// The Cauchy loss's scale in robust σ.
 const CAUCHY_SCALE: f64 = 2.0;
 

@@ -275,12 +275,14 @@ pub(super) fn fit(
             .flatten()
         {
             Some(next) if next.cost <= ne.cost => {
-                let small = ne.cost - next.cost <= 1e-14 * ne.cost && largest < 1e-12;
+                // Converged once a step changes the cost by a part in 10¹⁰ (far below what the
+                // covariance resolves) or turns no frame by more than 10⁻¹⁰ rad.
                 let relative = (ne.cost - next.cost) / ne.cost.max(f64::MIN_POSITIVE);
+                let small = largest < 1e-10;
                 state = trial;
                 ne = next;
                 lambda = (lambda / 3.0).max(1e-12);
-                if small || relative < 1e-13 {
+                if small || relative < 1e-10 {
                     break;
                 }
             }
