@@ -256,7 +256,7 @@ def calibrate_camera(
     camera: Camera,
     *,
     focal_length: bool = True,
-    principal_point: bool = True,
+    principal_point: Optional[bool] = None,
     radial_terms: Optional[int] = None,
     decentering: Optional[bool] = None,
     clip_sigma: float = 3.0,

@@ -76,7 +76,7 @@ def calibrate(
     image_size: Optional[tuple[float, float]] = None,
     catalog: Any = None,
     focal_length: bool = True,
-    principal_point: bool = True,
+    principal_point: Optional[bool] = None,
     radial_terms: Optional[int] = None,
     decentering: Optional[bool] = None,
     clip_sigma: float = 3.0,
@@ -99,8 +99,11 @@ def calibrate(
         The starting camera (its nominal focal length; the principal point at the centre). Frames
         to identify need it (or ``fov_deg`` and ``image_size``). For identifications it defaults
         to the first one's camera.
-    focal_length, principal_point : bool
-        Fit them (True) or hold the starting camera's.
+    focal_length : bool
+        Fit it (True) or hold the starting camera's.
+    principal_point : bool, optional
+        Fit it, or hold the starting camera's (False); None chooses as ``radial_terms`` does, so
+        that a few frames of few stars do not move it on noise.
     radial_terms : int, optional
         Radial terms fitted: 0 to 3 (``k1``, ``k1, k2``, ``k1..k3``). None chooses by the
         Hannan–Quinn criterion, so that terms the field cannot fix (``k3`` of a narrow lens) stay 0.
@@ -133,7 +136,7 @@ def calibrate(
         raise InvalidInputError("frames must be a sequence of frames or identifications")
     options = dict(
         focal_length=bool(focal_length),
-        principal_point=bool(principal_point),
+        principal_point=None if principal_point is None else bool(principal_point),
         radial_terms=None if radial_terms is None else int(radial_terms),
         decentering=None if decentering is None else bool(decentering),
         clip_sigma=float(clip_sigma),

@@ -106,7 +106,7 @@ def _parser() -> argparse.ArgumentParser:
     cal.add_argument("--catalog", type=Path, help="catalogue file; default: bundled Hipparcos")
     cal.add_argument("--radial-terms", type=int, choices=[0, 1, 2, 3], help="radial terms k1..k3 (default: chosen by the data)")
     cal.add_argument("--decentering", choices=["yes", "no"], help="fit p1, p2 (default: chosen by the data)")
-    cal.add_argument("--fixed-principal-point", action="store_true", help="hold the principal point")
+    cal.add_argument("--principal-point", choices=["yes", "no"], help="fit the principal point (default: chosen by the data)")
     cal.add_argument("--clip-sigma", type=float, default=3.0, help="outlier clipping threshold in sigma (0: none)")
     cal.add_argument("-o", "--output", type=Path, metavar="FILE", help="write the camera as JSON (for --camera and starid.load_camera)")
     cal.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -318,7 +318,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         catalog=resolve_catalog(args.catalog),
         magnitudes=None if any(m is None for m in mags) else mags,
         mag_offset=None,
-        principal_point=not args.fixed_principal_point,
+        principal_point=None if args.principal_point is None else args.principal_point == "yes",
         radial_terms=args.radial_terms,
         decentering=None if args.decentering is None else args.decentering == "yes",
         clip_sigma=args.clip_sigma,

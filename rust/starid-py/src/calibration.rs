@@ -54,14 +54,14 @@ fn frame(i: usize, (xy, stars, rotation, mirrored): FrameArgs<'_>) -> PyResult<C
 /// Fit one camera to many identified frames (see ``starid.calibrate``, which gathers the frames
 /// from identifications).
 #[pyfunction]
-#[pyo3(signature = (frames, camera, *, focal_length=true, principal_point=true, radial_terms=None, decentering=None, clip_sigma=3.0, max_iterations=100))]
+#[pyo3(signature = (frames, camera, *, focal_length=true, principal_point=None, radial_terms=None, decentering=None, clip_sigma=3.0, max_iterations=100))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate_camera(
     py: Python<'_>,
     frames: Vec<FrameArgs<'_>>,
     camera: &PyCamera,
     focal_length: bool,
-    principal_point: bool,
+    principal_point: Option<bool>,
     radial_terms: Option<usize>,
     decentering: Option<bool>,
     clip_sigma: f64,

@@ -39,8 +39,8 @@ pub struct CalibrationFrame {
 pub struct CalibrationConfig {
     /// Fit the focal length.
     pub focal_length: bool,
-    /// Fit the principal point.
-    pub principal_point: bool,
+    /// Fit the principal point; `None` chooses (see [`calibrate`]).
+    pub principal_point: Option<bool>,
     /// Radial terms fitted: 0 to 3 (`k1`, `k1..k2`, `k1..k3`); `None` chooses (see
     /// [`calibrate`]).
     pub radial_terms: Option<usize>,
@@ -57,7 +57,7 @@ impl Default for CalibrationConfig {
     fn default() -> Self {
         Self {
             focal_length: true,
-            principal_point: true,
+            principal_point: None,
             radial_terms: None,
             decentering: None,
             clip_sigma: 3.0,
@@ -137,7 +137,7 @@ impl CalibrationConfig {
         if self.focal_length {
             out.push(Intrinsic::FocalLength);
         }
-        if self.principal_point {
+        if self.principal_point.unwrap_or(true) {
             out.extend([Intrinsic::Cx, Intrinsic::Cy]);
         }
         out.extend(
@@ -219,11 +219,12 @@ impl Calibration {
 
 /// Fit one camera to many identified frames (see the module documentation).
 ///
-/// Where the configuration leaves the number of radial terms or the decentering open, every
-/// such model is fitted and the one with the least Hannan–Quinn information criterion kept, its
+/// Where the configuration leaves the number of radial terms, the decentering or the principal
+/// point open, every such model is fitted and the one with the least Hannan–Quinn information criterion kept, its
 /// cost the matches' squared residuals in units of the richest model's robust variance, each
 /// capped at the clipping threshold (so that the models are compared on the same matches).
-/// Terms the data cannot fix (`k3` on a narrow field) are so left out.
+/// Terms the data cannot fix (`k3` on a narrow field, the principal point of a few frames of
+/// few stars) are so left out.
 ///
 /// # Errors
 /// `InvalidInput` when the configuration is out of range, a frame's pixels and stars differ in
@@ -238,16 +239,22 @@ pub fn calibrate(
     let frames = prepared(frames, start)?;
     let radial: Vec<usize> = config.radial_terms.map_or(vec![3, 2, 1], |n| vec![n]);
     let decentering: Vec<bool> = config.decentering.map_or(vec![true, false], |d| vec![d]);
-    let models: Vec<CalibrationConfig> = decentering
-        .iter()
-        .flat_map(|&d| {
-            radial.iter().map(move |&n| CalibrationConfig {
-                radial_terms: Some(n),
-                decentering: Some(d),
-                ..*config
-            })
-        })
-        .collect();
+    let centre: Vec<bool> = config
+        .principal_point
+        .map_or(vec![true, false], |c| vec![c]);
+    let mut models: Vec<CalibrationConfig> = Vec::new();
+    for &c in &centre {
+        for &d in &decentering {
+            for &n in &radial {
+                models.push(CalibrationConfig {
+                    principal_point: Some(c),
+                    radial_terms: Some(n),
+                    decentering: Some(d),
+                    ..*config
+                });
+            }
+        }
+    }
     // The candidate models are independent fits: on every core where there are several.
     #[cfg(feature = "parallel")]
     let outcomes: Vec<Result<Calibration>> = {
@@ -258,8 +265,10 @@ pub fn calibrate(
             .collect()
     };
     #[cfg(not(feature = "parallel"))]
-    let outcomes: Vec<Result<Calibration>> =
-        models.iter().map(|m| fit_model(&frames, start, m)).collect();
+    let outcomes: Vec<Result<Calibration>> = models
+        .iter()
+        .map(|m| fit_model(&frames, start, m))
+        .collect();
     let mut fitted: Vec<Calibration> = Vec::new();
     let mut first_error = None;
     for outcome in outcomes {
@@ -400,6 +409,15 @@ fn fit_model(
     let camera = checked(&state.camera)?;
     let residuals_px = residuals(&frames, &state);
     let covariance = covariance(&frames, &masks, &state, &intrinsics, n_params);
+    let n = intrinsics.len();
+    if (0..n).any(|i| !(covariance[i * n + i] > 0.0 && covariance[i * n + i].is_finite())) {
+        let names: Vec<&str> = intrinsics.iter().map(|p| p.name()).collect();
+        return Err(Error::invalid_input(format!(
+            "the matches of {} frames cannot fix {}: their stars are too few or too close together",
+            frames.len(),
+            names.join(", ")
+        )));
+    }
     let frame_rms_px = residuals_px
         .iter()
         .zip(&masks)

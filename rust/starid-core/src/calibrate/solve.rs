@@ -155,7 +155,8 @@ fn normal(
                 }
                 for (i, jsi) in js.iter().enumerate() {
                     out.gs[i] += jsi[k] * res[k];
-                    for (j, jsj) in js.iter().enumerate() {
+                    // C is symmetric: its upper triangle here, the lower one mirrored below.
+                    for (j, jsj) in js.iter().enumerate().skip(i) {
                         out.c[i * n + j] += jsi[k] * jsj[k];
                     }
                 }
@@ -164,6 +165,11 @@ fn normal(
         out.a.push(a);
         out.b.push(b);
         out.g.push(g);
+    }
+    for i in 0..n {
+        for j in 0..i {
+            out.c[i * n + j] = out.c[j * n + i];
+        }
     }
     Some(out)
 }
