@@ -154,16 +154,15 @@ def calibrate(
         raise InvalidInputError("frames to identify need the camera (camera=, or fov_deg and image_size)")
     results = identify_many(items, catalog, camera=start, **settings)
     before = sum(getattr(r, "identification", r).ok for r in results)
+    # Fit, identify again with the camera found, and fit again on what that names, while it
+    # names more stars: each fit from the most stars the cameras so far could name.
     used, cal = results, _fit(results, start, options)
     after = identify_many(items, catalog, camera=cal.camera, **settings)
     for _ in range(max(0, int(rounds) - 1)):
         if _named(after) <= _named(used):
             break
-        nxt = _fit(after, start, options)
-        again = identify_many(items, catalog, camera=nxt.camera, **settings)
-        if _named(again) < _named(after):
-            break
-        used, cal, after = after, nxt, again
+        used, cal = after, _fit(after, start, options)
+        after = identify_many(items, catalog, camera=cal.camera, **settings)
     return cal._with_identified((before, sum(getattr(r, "identification", r).ok for r in after), len(items)))
 
 

@@ -315,7 +315,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     result = calibrate(
         [s.xy for s in star_lists],
         camera=start,
-        catalog=resolve_catalog(args.catalog),
+        catalog=args.catalog,  # None: the bundled catalogue deep enough for the field
         magnitudes=None if any(m is None for m in mags) else mags,
         mag_offset=None,
         principal_point=None if args.principal_point is None else args.principal_point == "yes",

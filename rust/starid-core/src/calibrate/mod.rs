@@ -220,9 +220,10 @@ impl Calibration {
 /// Fit one camera to many identified frames (see the module documentation).
 ///
 /// Where the configuration leaves the number of radial terms, the decentering or the principal
-/// point open, every such model is fitted and the one with the least Hannan–Quinn information criterion kept, its
-/// cost the matches' squared residuals in units of the richest model's robust variance, each
-/// capped at the clipping threshold (so that the models are compared on the same matches).
+/// point open, the richest such model is fitted first (robust start, clipping); every model is
+/// then fitted on its inliers and the one with the least Hannan–Quinn information criterion
+/// (cost in units of the richest model's residual variance, plus `2 ln ln n` per parameter)
+/// refitted with clipping and kept.
 /// Terms the data cannot fix (`k3` on a narrow field, the principal point of a few frames of
 /// few stars) are so left out.
 ///
@@ -255,19 +256,105 @@ pub fn calibrate(
             }
         }
     }
-    // The candidate models are independent fits: on every core where there are several.
+    if models.len() == 1 {
+        let cal = fit_model(&frames, start, &models[0], None)?;
+        return with_rms_before(&frames, start, config, cal);
+    }
+    // The richest model, fitted robustly, gives the inliers and a starting state; each candidate
+    // is then fitted on those inliers from that state (the terms it lacks set back to the
+    // starting camera's), so that all are compared on the same matches.
+    let rich = match fit_model(&frames, start, &models[0], None) {
+        Ok(rich) => rich,
+        // A rich model the data cannot fix: each candidate fitted on its own.
+        Err(_) => return choose_among_fits(&frames, start, config, &models),
+    };
+    let weights = as_weights(&rich.inliers);
+    let screen = |m: &CalibrationConfig| -> Option<(f64, State)> {
+        let intrinsics = m.intrinsics();
+        let mut camera = rich.camera;
+        for p in models[0].intrinsics() {
+            if !intrinsics.contains(&p) {
+                p.set(&mut camera, p.value(start));
+            }
+        }
+        let state = State {
+            camera,
+            attitudes: rich.attitudes.clone(),
+        };
+        let fitted = fit(&frames, &weights, state, &intrinsics, m.max_iterations).ok()?;
+        let cost: f64 = residuals(&frames, &fitted.state)
+            .iter()
+            .zip(&rich.inliers)
+            .flat_map(|(rs, k)| {
+                rs.iter()
+                    .zip(k)
+                    .filter(|(_, &k)| k)
+                    .map(|(r, _)| r[0] * r[0] + r[1] * r[1])
+            })
+            .sum();
+        Some((cost, fitted.state))
+    };
+    #[cfg(feature = "parallel")]
+    let screened: Vec<Option<(f64, State)>> = {
+        use rayon::prelude::*;
+        models.par_iter().map(screen).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let screened: Vec<Option<(f64, State)>> = models.iter().map(screen).collect();
+    let kept = rich.n_inliers();
+    let n_params = rich.intrinsics.len() + 3 * frames.len();
+    let sigma2 = screened[0].as_ref().map_or(f64::NAN, |(cost, _)| {
+        cost / (2 * kept).saturating_sub(n_params).max(1) as f64
+    });
+    let penalty = 2.0 * ((2 * kept) as f64).ln().ln();
+    let best = screened
+        .into_iter()
+        .zip(&models)
+        .filter_map(|(s, m)| {
+            s.map(|(cost, state)| {
+                (
+                    cost / sigma2 + penalty * m.intrinsics().len() as f64,
+                    state,
+                    m,
+                )
+            })
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0));
+    let cal = match best {
+        Some((_, state, m)) if *m != models[0] => {
+            fit_model(&frames, start, m, Some((state, rich.inliers.clone()))).or(Ok::<
+                Calibration,
+                Error,
+            >(
+                rich
+            ))?
+        }
+        _ => rich,
+    };
+    with_rms_before(&frames, start, config, cal)
+}
+
+/// Each candidate model fitted on its own (robust start, clipping), the one of least
+/// Hannan–Quinn criterion kept, on costs scaled by the richest fit's robust variance with each
+/// match capped at the clipping threshold.
+fn choose_among_fits(
+    frames: &[CalibrationFrame],
+    start: &Camera,
+    config: &CalibrationConfig,
+    models: &[CalibrationConfig],
+) -> Result<Calibration> {
     #[cfg(feature = "parallel")]
     let outcomes: Vec<Result<Calibration>> = {
         use rayon::prelude::*;
         models
             .par_iter()
-            .map(|m| fit_model(&frames, start, m))
+            .map(|m| fit_model(frames, start, m, None))
             .collect()
     };
     #[cfg(not(feature = "parallel"))]
     let outcomes: Vec<Result<Calibration>> = models
         .iter()
-        .map(|m| fit_model(&frames, start, m))
+        .map(|m| fit_model(frames, start, m, None))
         .collect();
     let mut fitted: Vec<Calibration> = Vec::new();
     let mut first_error = None;
@@ -283,9 +370,8 @@ pub fn calibrate(
         let chosen = fitted
             .pop()
             .ok_or_else(|| first_error.expect("a model was tried"))?;
-        return with_rms_before(&frames, start, config, chosen);
+        return with_rms_before(frames, start, config, chosen);
     }
-    // Costs on a common scale: the richest model's robust variance, each match capped.
     let richest = fitted
         .iter()
         .max_by_key(|c| c.intrinsics.len())
@@ -293,7 +379,7 @@ pub fn calibrate(
     let sigma2 = robust_variance(&richest.residuals_px, &richest.inliers);
     let cap = clip_threshold(config.clip_sigma).unwrap_or(f64::INFINITY);
     let n_obs = 2 * fitted[0].residuals_px.iter().map(Vec::len).sum::<usize>();
-    let bic = |c: &Calibration| {
+    let criterion = |c: &Calibration| {
         let cost: f64 = c
             .residuals_px
             .iter()
@@ -304,9 +390,9 @@ pub fn calibrate(
     };
     let chosen = fitted
         .into_iter()
-        .min_by(|a, b| bic(a).total_cmp(&bic(b)))
+        .min_by(|a, b| criterion(a).total_cmp(&criterion(b)))
         .expect("models");
-    with_rms_before(&frames, start, config, chosen)
+    with_rms_before(frames, start, config, chosen)
 }
 
 /// The calibration with its RMS before: the same inliers with the starting camera, each frame's
@@ -332,11 +418,13 @@ fn with_rms_before(
     Ok(cal)
 }
 
-/// One model's fit: the robust start, clipping rounds, the covariance.
+/// One model's fit: the robust start (or the state and inliers `from` gives), clipping rounds,
+/// the covariance.
 fn fit_model(
     frames: &[CalibrationFrame],
     start: &Camera,
     config: &CalibrationConfig,
+    from: Option<(State, Vec<Vec<bool>>)>,
 ) -> Result<Calibration> {
     let frames = frames.to_vec();
     let intrinsics = config.intrinsics();
@@ -348,14 +436,20 @@ fn fit_model(
             frames.len()
         )));
     }
-    let mut state = State {
-        camera: *start,
-        attitudes: frames.iter().map(|f| f.attitude).collect(),
-    };
-    let mut masks: Vec<Vec<bool>> = frames.iter().map(|f| vec![true; f.pixels.len()]).collect();
+    let robust_start = from.is_none();
+    let (mut state, mut masks) = from.unwrap_or_else(|| {
+        let state = State {
+            camera: *start,
+            attitudes: frames.iter().map(|f| f.attitude).collect(),
+        };
+        (
+            state,
+            frames.iter().map(|f| vec![true; f.pixels.len()]).collect(),
+        )
+    });
     let clip = clip_threshold(config.clip_sigma);
     let (mut iterations, mut rounds) = (0, 0);
-    if clip.is_some() {
+    if clip.is_some() && robust_start {
         // A robust start: wrong matches (a wrong neighbour at the edge of a distorted field) sit
         // many σ out and would bend a plain least-squares fit before clipping could see them,
         // so the fit is first reweighted by a Cauchy loss at the robust σ.
