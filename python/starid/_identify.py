@@ -316,8 +316,8 @@ def identify(
     image_size : (width_px, height_px)
         Sensor size; the optical axis meets it at ``(width/2, height/2)``.
     camera : Camera, optional
-        The camera as one object (size, focal length, principal point, distortion ``k1``),
-        instead of ``fov_deg`` and ``image_size``.
+        The camera as one object (size, focal length, principal point, Brown–Conrady
+        distortion; ``starid.calibrate`` fits one), instead of ``fov_deg`` and ``image_size``.
     fov_range_deg : (lo, hi), optional
         Range of the unknown field of view (default :data:`DEFAULT_FOV_RANGE_DEG`, 8 to 25
         degrees); only without ``fov_deg``. The pair index is built for the widest field.
