@@ -145,3 +145,15 @@ def test_the_command_calibrates_and_identifies_with_the_file(tmp_path, capsys):
     assert cli.main(["calibrate", *files, "--fov-deg", "30", "--size", "1024x768", "-o", files[0]]) == 2
     assert "refusing to overwrite" in capsys.readouterr().err
     assert cli.main(["identify", files[0], "--camera", str(out), "--fov-deg", "30"]) == 2
+
+
+def test_a_tracker_follows_the_sky_through_the_calibrated_camera(wide):
+    truth, _, cal = wide
+    tracker = starid.Tracker(camera=cal.camera)
+    for k in range(6):
+        f = starid.simulate(camera=truth, attitude_deg=(120.0 + 0.05 * k, 25.0, 40.0), noise_px=0.2, mag_noise=0.1, seed=k)
+        step = tracker.update(f.xy, 0.1 * k, magnitudes=f.magnitudes)
+        res = step.identification
+        assert res.ok
+        named = res.ids >= 0
+        assert (res.ids[named] == f.true_ids[named]).all() and named.sum() >= 0.9 * (f.true_ids >= 0).sum()
