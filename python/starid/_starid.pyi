@@ -122,6 +122,7 @@ class IdentifyConfig:
         brightness_order: Optional[bool] = None,
         verify: Optional[bool] = None,
         focal_check: Optional[bool] = None,
+        fov_tolerance: Optional[float] = None,
         learn_zero_point: Optional[bool] = None,
     ) -> IdentifyConfig: ...
     @staticmethod
@@ -158,6 +159,8 @@ class IdentifyConfig:
     def verify(self) -> bool: ...
     @property
     def focal_check(self) -> bool: ...
+    @property
+    def fov_tolerance(self) -> float: ...
     @property
     def learn_zero_point(self) -> bool: ...
 

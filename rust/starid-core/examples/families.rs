@@ -199,6 +199,9 @@ fn main() {
         method,
         ..Default::default()
     };
+    if let Ok(v) = std::env::var("STARID_FOV_TOLERANCE") {
+        config.fov_tolerance = v.parse().expect("STARID_FOV_TOLERANCE");
+    }
     if let Ok(v) = std::env::var("STARID_MAG_TOL") {
         config.mag_tolerance = v.parse().expect("STARID_MAG_TOL");
     }

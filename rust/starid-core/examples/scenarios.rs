@@ -87,6 +87,9 @@ fn main() {
     let filter = args.get(3).cloned().unwrap_or_default();
     let catalog = Arc::new(Catalog::bundled());
     let mut config = IdentifyConfig::default();
+    if let Ok(v) = std::env::var("STARID_FOV_TOLERANCE") {
+        config.fov_tolerance = v.parse().expect("STARID_FOV_TOLERANCE");
+    }
     if let Ok(v) = std::env::var("STARID_MAX_WORK") {
         config.max_pairs_visited = v.parse().expect("STARID_MAX_WORK");
     }

@@ -113,6 +113,28 @@ impl Solver {
         focal_range_px: (f64, f64),
         config: &IdentifyConfig,
     ) -> Result<FocalIdentification> {
+        self.search_focal_range(
+            centroids,
+            magnitudes,
+            (width_px, height_px),
+            focal_range_px,
+            config,
+            true,
+        )
+    }
+
+    /// [`Solver::identify_unknown_focal`]; `index_checked` false lets the range's widest field
+    /// span more than the pair index covers (a field given within a tolerance: the triangles
+    /// searched rarely span the diagonal, and pairs longer than the index are never found).
+    pub(crate) fn search_focal_range(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        (width_px, height_px): (f64, f64),
+        focal_range_px: (f64, f64),
+        config: &IdentifyConfig,
+        index_checked: bool,
+    ) -> Result<FocalIdentification> {
         let start = Instant::now();
         let (f_lo, f_hi) = focal_range_px;
         if !(f_lo.is_finite() && f_hi.is_finite() && f_lo > 0.0 && f_lo <= f_hi) {
@@ -128,7 +150,7 @@ impl Solver {
             ));
         }
         validate_centroids(centroids, magnitudes, &widest)?;
-        if widest.diagonal_fov_rad() > self.pair_index().max_angle_rad() * 1.0001 {
+        if index_checked && widest.diagonal_fov_rad() > self.pair_index().max_angle_rad() * 1.0001 {
             return Err(Error::invalid_input(format!(
                 "the pair index covers {:.2} degrees but the widest field of the range spans {:.2} degrees \
                  across the diagonal; build the index for the widest field",

@@ -71,7 +71,7 @@ pub struct PyIdentifyConfig {
 }
 
 /// Names of the settings, in the constructor's order.
-const SETTINGS: [&str; 15] = [
+const SETTINGS: [&str; 16] = [
     "centroid_sigma_px",
     "max_false_match_prob",
     "min_matches",
@@ -86,6 +86,7 @@ const SETTINGS: [&str; 15] = [
     "brightness_order",
     "verify",
     "focal_check",
+    "fov_tolerance",
     "learn_zero_point",
 ];
 
@@ -96,7 +97,7 @@ impl PyIdentifyConfig {
                         max_search_stars=None, max_hypotheses=None, max_pairs_visited=None,
                         allow_mirrored=None, timeout_s=None, method=None, mag_offset=0.0,
                         mag_tolerance=None, brightness_order=None, verify=None,
-                        focal_check=None, learn_zero_point=None))]
+                        focal_check=None, fov_tolerance=None, learn_zero_point=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -112,6 +113,7 @@ impl PyIdentifyConfig {
         brightness_order: Option<bool>,
         verify: Option<bool>,
         focal_check: Option<bool>,
+        fov_tolerance: Option<f64>,
         learn_zero_point: Option<bool>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
@@ -145,6 +147,7 @@ impl PyIdentifyConfig {
             brightness_order: brightness_order.unwrap_or(d.brightness_order),
             verify: verify.unwrap_or(d.verify),
             focal_check: focal_check.unwrap_or(d.focal_check),
+            fov_tolerance: fov_tolerance.unwrap_or(d.fov_tolerance),
             learn_zero_point: learn_zero_point.unwrap_or(d.learn_zero_point),
         };
         inner.validate().map_err(PyStaridError)?;
@@ -175,6 +178,7 @@ impl PyIdentifyConfig {
         d.set_item("brightness_order", c.brightness_order)?;
         d.set_item("verify", c.verify)?;
         d.set_item("focal_check", c.focal_check)?;
+        d.set_item("fov_tolerance", c.fov_tolerance)?;
         d.set_item("learn_zero_point", c.learn_zero_point)?;
         Ok(d)
     }
@@ -254,6 +258,11 @@ impl PyIdentifyConfig {
     #[getter]
     fn focal_check(&self) -> bool {
         self.inner.focal_check
+    }
+    /// How far off (relative) the given field of view may be; 0 holds it as given.
+    #[getter]
+    fn fov_tolerance(&self) -> f64 {
+        self.inner.fov_tolerance
     }
     /// In ``identify_many``, learn the magnitude zero point from the frames identified without
     /// it and search the ones nothing identified again with it; False: each frame alone.

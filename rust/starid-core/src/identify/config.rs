@@ -49,6 +49,15 @@ pub struct IdentifyConfig {
     /// and search the frame again with the one its residuals imply (the default; see
     /// [`scale`] and [`Identification::focal_length_px`]). `false` holds the camera fixed.
     pub focal_check: bool,
+    /// How far off the given field of view may be, relative (0.1: the field within ±10 %): a
+    /// field of view is an estimate (a lens's nominal focal length, a crop, focus). Where the
+    /// given camera finds no solution, or only one whose residuals needed a widened match radius
+    /// and that leaves many spots unnamed, the frame is searched again with the focal length
+    /// unknown within this tolerance ([`Solver::identify_unknown_focal`]), and the solution that
+    /// names more spots kept, with the focal length found. 0, or `focal_check` false, holds the
+    /// field as given. Only for cameras with the principal point at the centre and no
+    /// distortion (a calibrated camera is known better than this).
+    pub fov_tolerance: f64,
     /// In a batch ([`Solver::identify_batch`]), learn the magnitude zero point from the frames
     /// identified without it (the default): when [`ZERO_POINT_MIN_FRAMES`] or more of them
     /// agree on one, the frames with magnitudes that nothing identified (status `no_match` or
@@ -198,12 +207,35 @@ impl Default for IdentifyConfig {
             brightness_order: true,
             verify: true,
             focal_check: true,
+            fov_tolerance: DEFAULT_FOV_TOLERANCE,
             learn_zero_point: true,
         }
     }
 }
 
+/// Default of [`IdentifyConfig::fov_tolerance`]: a field of view known to ±10 %.
+pub const DEFAULT_FOV_TOLERANCE: f64 = 0.1;
+/// Largest [`IdentifyConfig::fov_tolerance`].
+pub const MAX_FOV_TOLERANCE: f64 = 0.5;
+
 impl IdentifyConfig {
+    /// The focal lengths `(shortest, longest)` a given camera's field of view allows within
+    /// [`IdentifyConfig::fov_tolerance`] (the camera's own for a tolerance of 0, for a camera
+    /// that is not ideal, without the focal check, or for raw answers without verification).
+    pub fn focal_range_px(&self, camera: &Camera) -> (f64, f64) {
+        let f = camera.focal_length_px;
+        if !(self.focal_check && self.verify && self.fov_tolerance > 0.0 && camera.is_ideal()) {
+            return (f, f);
+        }
+        let fov = camera.fov_rad();
+        let focal = |field: f64| 0.5 * camera.width_px / (0.5 * field).tan();
+        let widest = (fov * (1.0 + self.fov_tolerance)).min(170f64.to_radians());
+        (
+            focal(widest).min(f),
+            focal(fov * (1.0 - self.fov_tolerance)).max(f),
+        )
+    }
+
     /// This configuration searching with a learned zero point `(offset, tolerance)` (see
     /// [`agreed_zero_point`]), or `None` where the configured `mag_offset` already agrees with
     /// it (within `mag_tolerance`): the one rule of a batch and a tracker.
@@ -263,6 +295,12 @@ impl IdentifyConfig {
             return Err(Error::invalid_input(format!(
                 "mag_tolerance must be in (0, 100] magnitudes, got {}",
                 self.mag_tolerance
+            )));
+        }
+        if !(0.0..=MAX_FOV_TOLERANCE).contains(&self.fov_tolerance) {
+            return Err(Error::invalid_input(format!(
+                "fov_tolerance must be in [0, {MAX_FOV_TOLERANCE}] (relative), got {}",
+                self.fov_tolerance
             )));
         }
         if self.max_search_stars < 3 {

@@ -65,6 +65,7 @@ mod search;
 mod seeds;
 mod solver;
 mod stats;
+mod tolerance;
 mod verify;
 mod voting;
 
@@ -90,6 +91,19 @@ pub const BATCH_CHUNK: usize = 16_384;
 
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
+
+/// A solution whose noise estimate reached this (pixels), found with a given field of view that
+/// the focal check did not confirm, leaves the field in doubt (see
+/// [`IdentifyConfig::fov_tolerance`]).
+pub const DOUBT_SIGMA_PX: f64 = 0.5;
+/// So does a solution naming fewer stars than this (too few for the focal check to see a scale).
+pub const DOUBT_MATCHES: usize = 12;
+/// How many more spots (at least; a quarter more where that is more) another focal length must
+/// line up with stars to put a given one in doubt.
+pub const DOUBT_MORE_SPOTS: usize = 3;
+/// Catalogue pairs the search within the field's tolerance may visit (triangle bases, and each
+/// focal length's identification).
+pub const TOLERANCE_MAX_PAIRS: usize = 100_000;
 
 /// Triangles tried at each step of the ladder but the last before moving to a looser step.
 pub const TRIANGLES_PER_STEP: usize = 60;

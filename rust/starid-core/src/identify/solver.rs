@@ -344,6 +344,10 @@ impl Solver {
         if config.focal_check && id.verified && id.matched < centroids.len() {
             self.check_focal(centroids, magnitudes, camera, config, start, &mut id)?;
         }
+        self.count_scale_freedom(&mut id, centroids, camera, config);
+        if self.field_in_doubt(&id, centroids, camera, config, start) {
+            self.search_within_tolerance(centroids, magnitudes, camera, config, &mut id)?;
+        }
         id.elapsed = start.elapsed();
         Ok(id)
     }
@@ -367,24 +371,41 @@ impl Solver {
         // The camera's errors that the solution kept shows (`id` under `cam`).
         let mut err = scale::camera_error(centroids, &cam, id, vectors);
         for _ in 0..scale::FOCAL_RETRIES {
-            let Some(((a, b), strict)) = err.and_then(|e| e.correction()) else {
+            let Some(e) = err else { break };
+            let Some(((a, b), strict)) = e.correction() else {
                 break;
             };
-            if config.timeout.is_some_and(|t| start.elapsed() >= t) {
-                break;
+            // A scale and a radial term fitted together to the centre of a field whose edges
+            // went unmatched are confounded: where the joint correction is tried, the scale
+            // alone is tried too, and the camera that names more spots kept.
+            let mut corrections = vec![(a, b, strict)];
+            if b != 0.0 && scale::significant(e.scale) {
+                corrections.push((e.scale.0, 0.0, false));
             }
-            let mut trial = cam;
-            trial.focal_length_px *= 1.0 + a;
-            if b != 0.0 {
-                let Ok(t) = trial.with_k1(cam.k1 + b) else {
+            let mut best: Option<(Camera, Identification, f64)> = None;
+            for (a, b, strict) in corrections {
+                if config.timeout.is_some_and(|t| start.elapsed() >= t) {
                     break;
-                };
-                trial = t;
+                }
+                let mut trial = cam;
+                trial.focal_length_px *= 1.0 + a;
+                if b != 0.0 {
+                    let Ok(t) = trial.with_k1(cam.k1 + b) else {
+                        continue;
+                    };
+                    trial = t;
+                }
+                let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
+                let enough = again.verified && again.matched >= id.matched + usize::from(strict);
+                if enough
+                    && best
+                        .as_ref()
+                        .is_none_or(|(_, b, _)| again.matched > b.matched)
+                {
+                    best = Some((trial, again, b));
+                }
             }
-            let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
-            if !(again.verified && again.matched >= id.matched + usize::from(strict)) {
-                break;
-            }
+            let Some((trial, again, b)) = best else { break };
             let k1_corrected = id.k1.is_some() || b != 0.0;
             (cam, *id) = (trial, again);
             id.focal_length_px = Some(cam.focal_length_px);
@@ -403,6 +424,19 @@ impl Solver {
             id.focal_length_px = Some(cam.focal_length_px);
             id.focal_sigma_px = se * cam.focal_length_px;
             id.k1 = id.k1.map(|_| cam.k1);
+            // The refined camera may name spots the last search's could not (the edges of a
+            // field whose scale the corrections approached from one side): kept if it does.
+            let in_time = config.timeout.is_none_or(|t| start.elapsed() < t);
+            if in_time && id.matched < centroids.len() {
+                let again = self.search_frame(centroids, magnitudes, &cam, config, start)?;
+                if again.verified && again.matched > id.matched {
+                    let (sigma, k1) = (id.focal_sigma_px, id.k1);
+                    *id = again;
+                    id.focal_length_px = Some(cam.focal_length_px);
+                    id.focal_sigma_px = sigma;
+                    id.k1 = k1;
+                }
+            }
         }
         Ok(())
     }

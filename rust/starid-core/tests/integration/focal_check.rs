@@ -2,6 +2,7 @@
 //! the focal length their residuals imply (mirrored frames too); frames given the right one
 //! never are.
 
+use starid_core::geometry::rotation_angle_between;
 use starid_core::simulate::{simulate, SimConfig};
 use starid_core::{Camera, IdentifyConfig, Solver};
 
@@ -126,4 +127,82 @@ fn an_unknown_radial_distortion_is_found_with_the_focal_length() {
     // written.
     assert!(found >= 20, "{found} frames found k1");
     assert!(named_checked > named_fixed + 100 && 100 * named_checked > 97 * real);
+}
+
+/// A field of view is an estimate: given up to 10 % off (either way), frames identify with the
+/// focal length found and no wrong id; given 20 % off, beyond the tolerance, they cost
+/// identifications but never name a star wrong. Without the tolerance a field 8 % off
+/// identifies almost nothing.
+#[test]
+fn a_field_of_view_within_its_tolerance_identifies_and_one_beyond_it_is_never_wrong() {
+    let catalog = bundled();
+    let size = 512.0;
+    let truth = Camera::from_fov(12f64.to_radians(), size, size).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let sim = SimConfig {
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
+    let frames: Vec<_> = (0..24u64)
+        .map(|seed| {
+            let sim = SimConfig {
+                mirrored: seed % 2 == 1,
+                ..sim.clone()
+            };
+            simulate(&catalog, &truth, &sim, 100 + seed).unwrap()
+        })
+        .filter(|f| f.real_stars() >= 8)
+        .collect();
+    let run = |off: f64, config: &IdentifyConfig| {
+        let given = Camera::from_fov(12f64.to_radians() * (1.0 + off), size, size).unwrap();
+        let (mut identified, mut wrong, mut focal_err) = (0, 0, 0f64);
+        for f in &frames {
+            let r = solver
+                .identify(&f.centroids, Some(&f.magnitudes), &given, config)
+                .unwrap();
+            wrong += r
+                .catalog_index
+                .iter()
+                .zip(&f.catalog_index)
+                .filter(|(a, b)| a.is_some() && a != b)
+                .count();
+            if r.is_identified() {
+                identified += 1;
+                // The attitude is right (a focal length kept off by a few percent scales the
+                // field about its centre, and the pointing stays), and a focal length found is.
+                let turn = rotation_angle_between(&r.r_icrs_to_cam.unwrap(), &f.r_icrs_to_cam);
+                assert!(
+                    turn.to_degrees() < 0.05,
+                    "{off}: attitude off by {turn} rad"
+                );
+                if let Some(focal) = r.focal_length_px {
+                    focal_err = focal_err.max((focal / truth.focal_length_px - 1.0).abs());
+                }
+            }
+        }
+        (identified, wrong, focal_err)
+    };
+    let tolerant = IdentifyConfig::default();
+    assert!(tolerant.fov_tolerance >= 0.1);
+    for off in [-0.08, -0.04, 0.03, 0.06, 0.1] {
+        let (identified, wrong, focal_err) = run(off, &tolerant);
+        assert_eq!(wrong, 0, "{off}");
+        assert!(
+            identified + 1 >= frames.len(),
+            "{off}: {identified}/{}",
+            frames.len()
+        );
+        assert!(focal_err < 2e-3, "{off}: focal error {focal_err}");
+    }
+    for off in [-0.2, 0.2] {
+        assert_eq!(run(off, &tolerant).1, 0, "{off}");
+    }
+    let exact = IdentifyConfig {
+        fov_tolerance: 0.0,
+        ..Default::default()
+    };
+    let (identified, wrong, _) = run(0.08, &exact);
+    assert_eq!(wrong, 0);
+    assert!(identified * 4 < frames.len(), "{identified}");
 }

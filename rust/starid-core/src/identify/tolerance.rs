@@ -1,0 +1,269 @@
+//! A field of view is an estimate ([`IdentifyConfig::fov_tolerance`]): where the given camera
+//! leaves the field in doubt, the frame is searched with the focal length unknown within the
+//! tolerance, and the solution that names more spots kept.
+
+use super::*;
+
+/// A scale fitted to a solution's residuals at this many of its σ counts as a hint of a field
+/// given off (below the focal check's own threshold, which acts on it).
+const SCALE_HINT_SIGMAS: f64 = 3.0;
+
+/// How far (radians) the roll of a solution matched at the centre only may be off, for the
+/// scale scan of [`Solver::field_in_doubt`].
+const ROLL_SLACK_RAD: f64 = 5e-3;
+
+impl Solver {
+    /// A solution of the given camera that needed a widened match radius and that the focal
+    /// check did not confirm may owe its matches to a scale within the
+    /// tolerance rather than to the field given: its false-match bound is multiplied by the
+    /// number of scales the tolerance holds that the match radius tells apart (a union bound,
+    /// as the search over the range has), and a solution that then fails the bound is
+    /// withdrawn (the search within the tolerance may find it again, or another).
+    pub(crate) fn count_scale_freedom(
+        &self,
+        id: &mut Identification,
+        centroids: &[[f64; 2]],
+        camera: &Camera,
+        config: &IdentifyConfig,
+    ) {
+        let n = centroids.len();
+        let (shortest, longest) = config.focal_range_px(camera);
+        let loose = id.centroid_sigma_px >= DOUBT_SIGMA_PX;
+        if !(id.verified && shortest < longest && id.focal_length_px.is_none() && loose) {
+            return;
+        }
+        // Residuals that grow with the distance from the centre show a scale; noise alone does
+        // not call for the count (a camera whose centroids are noisy is not a field in doubt).
+        if !self.scale_shows(id, centroids, camera) {
+            return;
+        }
+        let half_diagonal = 0.5 * camera.width_px.hypot(camera.height_px);
+        let span = (longest - shortest) / camera.focal_length_px * half_diagonal;
+        let scales = (span / (3.0 * id.centroid_sigma_px)).max(1.0);
+        id.false_match_probability = (id.false_match_probability * scales).min(1.0);
+        if id.false_match_probability > config.max_false_match_prob {
+            *id = Identification::unidentified(Status::NoMatch, n, id.hypotheses, id.elapsed);
+        }
+    }
+
+    /// Whether a solution of the given camera leaves its field of view in doubt: none was found,
+    /// or one that the focal check did not confirm and that either needed a widened match
+    /// radius for residuals that grow with the distance from the centre, or (found with a
+    /// widened radius or naming few stars) names fewer than four spots in five while another
+    /// focal length lines up decisively more spots with stars at its attitude, or the stars it
+    /// puts on the sensor go unmatched (a field a few percent off matches the centre and loses
+    /// the edges; a star there may fall on another's spot). Only with a tolerance ([`IdentifyConfig::focal_range_px`]), and time
+    /// left.
+    pub(crate) fn field_in_doubt(
+        &self,
+        id: &Identification,
+        centroids: &[[f64; 2]],
+        camera: &Camera,
+        config: &IdentifyConfig,
+        start: Instant,
+    ) -> bool {
+        let (shortest, longest) = config.focal_range_px(camera);
+        let n = centroids.len();
+        if shortest >= longest || n < crate::identify::MIN_CENTROIDS {
+            return false;
+        }
+        let timed_out = config.timeout.is_some_and(|t| start.elapsed() >= t);
+        if timed_out || config.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+            return false;
+        }
+        if !id.verified {
+            return true;
+        }
+        if id.focal_length_px.is_some() {
+            return false;
+        }
+        let loose = id.centroid_sigma_px >= DOUBT_SIGMA_PX;
+        if loose && self.scale_shows(id, centroids, camera) {
+            return true;
+        }
+        (loose || id.matched < DOUBT_MATCHES)
+            && 5 * id.matched < 4 * n
+            && (self.another_scale_fits(id, centroids, camera, (shortest, longest))
+                || self.bright_stars_missing(id, camera))
+    }
+
+    /// Whether the solution's residuals grow with the distance from the centre by more than
+    /// [`SCALE_HINT_SIGMAS`] of their σ (too few matches to tell: yes).
+    fn scale_shows(&self, id: &Identification, centroids: &[[f64; 2]], camera: &Camera) -> bool {
+        scale::camera_error(centroids, camera, id, self.catalog.vectors())
+            .is_none_or(|f| f.scale.0.abs() > SCALE_HINT_SIGMAS * f.scale.1)
+    }
+
+    /// Whether the solution leaves decisively many stars unmatched (as many as the scale scan
+    /// asks) among the catalogue stars it puts on the sensor that are no fainter than its
+    /// faintest match: a field matched
+    /// over one cluster at a wrong scale (which a shift of the pointing absorbs there) predicts
+    /// the rest of the sky where the image has none of it.
+    fn bright_stars_missing(&self, id: &Identification, camera: &Camera) -> bool {
+        let Some(r) = id.r_icrs_to_cam else {
+            return false;
+        };
+        let mags = self.catalog.mag();
+        let faintest = id
+            .catalog_index
+            .iter()
+            .flatten()
+            .map(|&s| mags[s as usize])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let half_diagonal = 0.5 * camera.width_px.hypot(camera.height_px);
+        let radius = (half_diagonal / camera.focal_length_px).atan() * 1.01;
+        let boresight = r.inverse() * Vector3::z();
+        let mut predicted = 0usize;
+        self.catalog
+            .for_each_in_cone(&boresight, radius, |star, _| {
+                if mags[star as usize] > faintest {
+                    return;
+                }
+                let v = r * self.catalog.vectors()[star as usize];
+                if let Some((x, y)) = camera.cam_to_pixel(&v) {
+                    if (0.0..camera.width_px).contains(&x) && (0.0..camera.height_px).contains(&y) {
+                        predicted += 1;
+                    }
+                }
+            });
+        predicted >= id.matched + (id.matched / 4).max(DOUBT_MORE_SPOTS)
+    }
+
+    /// Whether, at the solution's attitude, another focal length within `range` lines up
+    /// decisively more spots with catalogue stars than the given one: each spot and star seen
+    /// from the principal point along one direction (within the match radius across it) gives
+    /// the scale that would put the star on the spot, and the scales are counted in windows
+    /// as wide as the match radius allows at that star's distance from the centre. Cheap (the
+    /// stars in the field against the spots), where the search over the range is not.
+    fn another_scale_fits(
+        &self,
+        id: &Identification,
+        centroids: &[[f64; 2]],
+        camera: &Camera,
+        (shortest, longest): (f64, f64),
+    ) -> bool {
+        let Some(r) = id.r_icrs_to_cam else {
+            return false;
+        };
+        let f = camera.focal_length_px;
+        let [cx, cy] = camera.principal_point_px;
+        let sign = if id.mirrored { -1.0 } else { 1.0 };
+        let spots: Vec<[f64; 2]> = centroids
+            .iter()
+            .map(|c| [sign * (c[0] - cx), c[1] - cy])
+            .collect();
+        let half_diagonal = 0.5 * camera.width_px.hypot(camera.height_px);
+        let radius = (half_diagonal / shortest).atan();
+        let boresight = r.inverse() * Vector3::z();
+        let across = 3.0 * id.centroid_sigma_px.max(SIGMA_LADDER_PX[0]);
+        let (lo, hi) = (shortest / f, longest / f);
+        // (scale, half-width of its window, spot) for each spot along a star's direction.
+        let mut votes: Vec<(f64, f64, usize)> = Vec::new();
+        self.catalog
+            .for_each_in_cone(&boresight, radius, |star, _| {
+                let v = r * self.catalog.vectors()[star as usize];
+                if v.z <= 0.0 {
+                    return;
+                }
+                let p = [f * v.x / v.z, f * v.y / v.z];
+                let p2 = p[0] * p[0] + p[1] * p[1];
+                if p2 < (0.1 * half_diagonal).powi(2) {
+                    return; // too near the centre to tell one scale from another
+                }
+                let norm = p2.sqrt();
+                // Across the direction, the noise and what a roll fitted to the centre alone
+                // may be off by (ROLL_SLACK_RAD) at this distance.
+                let width = across + ROLL_SLACK_RAD * norm;
+                for (i, q) in spots.iter().enumerate() {
+                    let perpendicular = (q[0] * p[1] - q[1] * p[0]).abs() / norm;
+                    let scale = (q[0] * p[0] + q[1] * p[1]) / p2;
+                    if perpendicular <= width && (lo..=hi).contains(&scale) {
+                        votes.push((scale, across / norm, i));
+                    }
+                }
+            });
+        let lined_up = |centre: f64| {
+            let mut seen: Vec<usize> = votes
+                .iter()
+                .filter(|(s, w, _)| (s - centre).abs() <= *w)
+                .map(|v| v.2)
+                .collect();
+            seen.sort_unstable();
+            seen.dedup();
+            seen.len()
+        };
+        let given = lined_up(1.0);
+        let best = votes.iter().map(|v| lined_up(v.0)).max().unwrap_or(0);
+        best >= given + (given / 4).max(DOUBT_MORE_SPOTS)
+    }
+
+    /// Search the frame with its focal length unknown within the tolerance, and keep that
+    /// solution where it names more spots, or nearly as many with far tighter residuals.
+    pub(crate) fn search_within_tolerance(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        id: &mut Identification,
+    ) -> Result<()> {
+        let (shortest, longest) = config.focal_range_px(camera);
+        // A range a few percent wide needs a fraction of the work of a field unknown across
+        // 8°–25°, and most frames searched here (hostile ones, a few stars among false spots)
+        // have no solution to find.
+        let narrow = IdentifyConfig {
+            max_pairs_visited: config.max_pairs_visited.min(TOLERANCE_MAX_PAIRS),
+            ..config.clone()
+        };
+        // The pair index stays the given camera's: the wider fields of the range lack only
+        // their longest pairs.
+        let found = self.search_focal_range(
+            centroids,
+            magnitudes,
+            (camera.width_px, camera.height_px),
+            (shortest, longest),
+            &narrow,
+            false,
+        )?;
+        let f = &found.identification;
+        // More spots named, or nearly as many with residuals far tighter (a match radius widened
+        // for a scale error takes in a spot or two more by chance).
+        let better = !id.verified
+            || f.matched > id.matched
+            || (f.matched + DOUBT_MORE_SPOTS > id.matched
+                && 2.0 * f.centroid_sigma_px < id.centroid_sigma_px);
+        let (true, true, Some(cam)) = (found.identification.verified, better, found.camera) else {
+            return Ok(());
+        };
+        let hypotheses = id.hypotheses + found.identification.hypotheses;
+        *id = found.identification;
+        id.focal_length_px = Some(cam.focal_length_px);
+        id.focal_sigma_px = found
+            .fit
+            .as_ref()
+            .map_or(f64::NAN, crate::pointing::PointingFit::focal_sigma_px);
+        id.k1 = (cam.k1 != 0.0).then_some(cam.k1);
+        // The focal length refined over the stars matched so far may stop short where the
+        // edges were not matched yet: the frame searched again with it, and the focal check's
+        // correction, named more spots or not at all.
+        let start = Instant::now();
+        let mut again = self.search_frame(centroids, magnitudes, &cam, config, start)?;
+        if again.verified && again.matched < centroids.len() {
+            self.check_focal(centroids, magnitudes, &cam, config, start, &mut again)?;
+        }
+        if again.verified && again.matched > id.matched {
+            let focal = again.focal_length_px.unwrap_or(cam.focal_length_px);
+            let sigma = if again.focal_length_px.is_some() {
+                again.focal_sigma_px
+            } else {
+                id.focal_sigma_px
+            };
+            *id = again;
+            id.focal_length_px = Some(focal);
+            id.focal_sigma_px = sigma;
+            id.k1 = id.k1.or((cam.k1 != 0.0).then_some(cam.k1));
+        }
+        id.hypotheses += hypotheses;
+        Ok(())
+    }
+}
