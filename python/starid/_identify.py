@@ -310,9 +310,10 @@ def identify(
     catalog : Catalog, path or None
         The star catalogue; None uses the bundled Hipparcos catalogue (Hp <= 6.5).
     fov_deg : float, optional
-        Full field of view across the image width, degrees. When omitted, the field of view is
-        unknown: it is searched in ``fov_range_deg`` and estimated (``focal_px``, ``fov_deg``
-        and ``focal_sigma_px`` on the result).
+        Full field of view across the image width, degrees: an estimate, good to
+        ``fov_tolerance`` (10 % by default; the field found is ``fov_deg`` on the result). When
+        omitted, the field of view is unknown: it is searched in ``fov_range_deg`` and estimated
+        (``focal_px``, ``fov_deg`` and ``focal_sigma_px`` on the result).
     image_size : (width_px, height_px)
         Sensor size; the optical axis meets it at ``(width/2, height/2)``.
     camera : Camera, optional
@@ -397,6 +398,13 @@ def identify(
         grow with the cube of the distance say the same of the lens's radial distortion: the
         one found is reported as ``k1`` (and written to the WCS). False holds the given camera
         fixed.
+    fov_tolerance : float
+        How far off ``fov_deg`` may be, relative (default 0.1: ±10 %). Where the given field
+        finds no solution, or one its residuals or unmatched stars put in doubt, the frame is
+        searched with the focal length unknown within the tolerance, and the field found
+        reported. 0 (or ``focal_check=False``) holds the field as given: for cameras known
+        exactly, whose frames then cost no search beyond it. A calibrated camera (principal
+        point off the centre, distortion) is held as given.
     learn_zero_point : bool
         :func:`identify_many` only (default True): with ``mag_offset=None`` (or one the
         magnitudes do not fit), the frames identified from the brightness order alone measure
