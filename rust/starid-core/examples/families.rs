@@ -14,7 +14,9 @@
 //! (a zero point the solver is not told); `STARID_REALISTIC` adds 0.3 mag of scatter and a zero
 //! point drawn from ±8 mag, searched with `mag_offset: None` (the peer benchmark's realistic input);
 //! `STARID_FAST_REPEAT=R` identifies each scene that took under `STARID_FAST_US` µs (default 100;
-//! more under valgrind) R more times (for profilers).
+//! more under valgrind) R more times (for profilers). `STARID_SIGMA_PX` states a centroid noise
+//! (`centroid_sigma_px`; the default is the noise ladder), `STARID_FOV_TOLERANCE` the field of
+//! view's tolerance (`fov_tolerance`; 0 holds the field as given).
 //!
 //! `STARID_ROUNDS=R` times the scenes as the peer benchmark does instead: every scene simulated
 //! first, then R passes over all of them in turn, each scene's fastest call (a call then follows
@@ -199,6 +201,9 @@ fn main() {
         method,
         ..Default::default()
     };
+    if let Ok(v) = std::env::var("STARID_SIGMA_PX") {
+        config.centroid_sigma_px = Some(v.parse().expect("STARID_SIGMA_PX"));
+    }
     if let Ok(v) = std::env::var("STARID_FOV_TOLERANCE") {
         config.fov_tolerance = v.parse().expect("STARID_FOV_TOLERANCE");
     }

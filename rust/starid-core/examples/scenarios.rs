@@ -6,7 +6,8 @@
 //! `cargo run --release --example scenarios -- [FRAMES] [REPEAT] [SCENARIO-SUBSTRING]`
 //!
 //! `REPEAT` identifies every frame that many times (for profilers); each frame's time is its fastest.
-//! Environment: `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
+//! Environment: `STARID_FOV_TOLERANCE` sets `fov_tolerance` (0 holds the field as given);
+//! `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
 //! the hopeless ones); `STARID_HYP` prints hypothesis counts; `STARID_FAILS` lists failures and
 //! wrong ids; `STARID_SEED=N` runs one frame; `STARID_ORDER_ONLY` gives the centroids brightest
 //! first without their magnitudes (what tetra3-style solvers take); `STARID_REALISTIC` gives
