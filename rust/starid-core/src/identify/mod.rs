@@ -53,6 +53,7 @@ mod batch;
 mod cache;
 mod cancel;
 mod config;
+mod focal;
 mod frame;
 mod hinted;
 mod join;

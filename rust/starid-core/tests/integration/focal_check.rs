@@ -58,7 +58,15 @@ fn a_field_of_view_given_one_percent_off_is_corrected_by_the_residuals() {
             let rel = focal / truth.focal_length_px - 1.0;
             assert!(rel.abs() < 2e-3, "seed {seed}: focal {rel:+.2e} off");
             assert!(b.focal_sigma_px > 0.0 && b.focal_sigma_px < 0.002 * focal);
-            assert!(b.matched >= a.matched, "seed {seed}");
+            // As many spots named, or (a search within the field's tolerance) nearly as many
+            // with far tighter residuals: a radius widened for the scale takes in a spot or two.
+            assert!(b.matched + 2 >= a.matched, "seed {seed}");
+            if b.matched < a.matched {
+                assert!(
+                    2.0 * b.centroid_sigma_px < a.centroid_sigma_px,
+                    "seed {seed}"
+                );
+            }
             assert!(
                 wrong(&b.catalog_index, &f.catalog_index)
                     <= wrong(&a.catalog_index, &f.catalog_index)
