@@ -3,6 +3,8 @@
 //! - [`distances`]: the boresight (and focal length) from the distances of three or more star
 //!   images from the principal point, the precision that geometry allows and the choice of the
 //!   stars that give the best one (the contest solutions' "boresight from three stars").
+//! - [`precision`]: the covariance that geometry predicts, the best stars to measure, and a
+//!   Monte Carlo check.
 //! - [`refine`]: attitude and camera (focal length, principal point, `k1`) fitted over all
 //!   matched stars by Levenberg–Marquardt, with covariance; the focal length from star pairs.
 //!
@@ -14,9 +16,11 @@ use crate::error::{Error, Result};
 use crate::geometry::angle_between;
 
 pub mod distances;
+pub mod precision;
 pub mod refine;
 
 pub use distances::*;
+pub use precision::*;
 pub use refine::*;
 
 /// Largest number of stars the pointing functions accept.
