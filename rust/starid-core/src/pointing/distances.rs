@@ -15,7 +15,7 @@
 //! - `degenerate`: the Jacobian is rank-deficient at the solution, so a direction of parameter
 //!   space is not determined to first order (collinear images through the principal point).
 //!
-//! # Precision and star choice ([`predicted_distance_covariance`], [`choose_stars`])
+//! # Precision and star choice ([`super::precision`]: `predicted_distance_covariance`, `choose_stars`)
 //! The covariance of the distance solution depends only on the images' positions relative to
 //! the principal point and on `f`: a star at offset `aᵢ·uᵢ` contributes the row
 //! `[−(f + aᵢ²/f)·uᵢ, aᵢ/f]` to the Jacobian (boresight, focal length). Edge stars weigh more
