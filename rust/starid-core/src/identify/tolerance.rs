@@ -246,11 +246,11 @@ impl Solver {
         // The focal length refined over the stars matched so far may stop short where the
         // edges were not matched yet: the frame searched again with it, and the focal check's
         // correction, named more spots or not at all.
-        let start = Instant::now();
-        let mut again = self.search_frame(centroids, magnitudes, &cam, config, start)?;
-        if again.verified && again.matched < centroids.len() {
-            self.check_focal(centroids, magnitudes, &cam, config, start, &mut again)?;
-        }
+        let held = IdentifyConfig {
+            fov_tolerance: 0.0,
+            ..config.clone()
+        };
+        let again = self.identify(centroids, magnitudes, &cam, &held)?;
         if again.verified && again.matched > id.matched {
             let focal = again.focal_length_px.unwrap_or(cam.focal_length_px);
             let sigma = if again.focal_length_px.is_some() {
