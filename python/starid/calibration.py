@@ -169,7 +169,9 @@ def calibrate(
 def _fit(results: Sequence[Any], start: Camera, options: dict[str, Any]) -> Any:
     frames = _frames_of(results)
     if not frames:
-        raise InvalidInputError("no frame was identified: nothing to calibrate from")
+        bad = [r.message for r in (getattr(x, "identification", x) for x in results) if r.status == "invalid_input"]
+        why = f" ({len(bad)} malformed, the first: {bad[0]})" if bad else ""
+        raise InvalidInputError(f"no frame was identified: nothing to calibrate from{why}")
     return _starid.calibrate_camera(frames, start, **options)
 
 
