@@ -135,7 +135,7 @@ def test_results_are_immutable_and_pickle() -> None:
         assert repr(back) == repr(res)
     assert res.ok and not np.isnan(res.focal_sigma_px)
     with pytest.raises(ValueError, match="status"):
-        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 18, 0, "pyramid", None, (False, False, None, ([], None, []))))
+        starid.Identification._from_state(("found", [], [], None, False, 1.0, 0, [0.0] * 20, 0, "pyramid", None, (False, False, None, ([], None, []), "ladder")))
 
 
 def test_camera_object_matches_keywords_and_round_trips(bundled: starid.Catalog) -> None:

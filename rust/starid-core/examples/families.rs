@@ -8,14 +8,16 @@
 //! `STARID_HIP2` (`benches/bench_families.py` finds it for you). Score per scene:
 //! `max((c − 2w) / max(t, 1), −1)` with `c` right ids, `w` wrong ids, `t` real (catalogued)
 //! stars in the scene; summed over scenes and scaled to 100. `STARID_METHOD` picks the method
-//! (default `auto`); `STARID_FAILS` lists failed scenes of at least 4 stars (with the real stars
+//! (default `auto`); `STARID_FAILS` lists failed scenes of at least 4 stars, `STARID_WRONG` scenes with a wrong id (with the real stars
 //! among their brightest 6, 12 and 24 spots); `STARID_ORDER_ONLY`
 //! gives the spots brightest first without magnitudes; `STARID_MAG_SHIFT` shifts the magnitudes
 //! (a zero point the solver is not told); `STARID_REALISTIC` adds 0.3 mag of scatter and a zero
 //! point drawn from ±8 mag, searched with `mag_offset: None` (the peer benchmark's realistic input);
 //! `STARID_FAST_REPEAT=R` identifies each scene that took under `STARID_FAST_US` µs (default 100;
 //! more under valgrind) R more times (for profilers). `STARID_SIGMA_PX` states a centroid noise
-//! (`centroid_sigma_px`; the default is the noise ladder), `STARID_FOV_TOLERANCE` the field of
+//! (`centroid_sigma_px`; the default is the noise ladder) and `STARID_NOISE_PX` the true one (the
+//! family's 0.2 px otherwise), `STARID_BATCH` identifies each family's scenes as one batch (learning the zero point and the
+//! noise), `STARID_FOV_TOLERANCE` the field of
 //! view's tolerance (`fov_tolerance`; 0 holds the field as given).
 //!
 //! `STARID_ROUNDS=R` times the scenes as the peer benchmark does instead: every scene simulated
@@ -53,7 +55,12 @@ fn given_magnitudes(f: &SimFrame) -> Option<&[f64]> {
 
 /// Scene `seed` of `family`, its magnitudes as the environment asks (see the module's notes).
 fn scene(family: Family, catalog: &Catalog, seed: u64, realistic: bool) -> SimFrame {
-    let mut f = family.simulate(catalog, seed).expect("scene");
+    let mut sim = family.sim_config(seed);
+    if let Ok(v) = std::env::var("STARID_NOISE_PX") {
+        sim.noise_px = v.parse().expect("STARID_NOISE_PX");
+    }
+    let mut f =
+        starid_core::simulate::simulate(catalog, &family.camera(), &sim, seed).expect("scene");
     if let Ok(v) = std::env::var("STARID_MAG_SHIFT") {
         let shift: f64 = v.parse().expect("STARID_MAG_SHIFT");
         for m in &mut f.magnitudes {
@@ -273,13 +280,40 @@ fn main() {
         let mut ok_times = Vec::new();
         // Scenes and fully identified scenes by number of real stars (3, 4, 5, 6+).
         let mut by_real = [[0usize; 2]; 4];
+        // STARID_BATCH: every scene identified in one batch (which learns the zero point and
+        // the centroid noise from its frames), on all cores.
+        let mut batch = if std::env::var("STARID_BATCH").is_ok() {
+            let frames: Vec<SimFrame> = (0..scenes)
+                .map(|seed| scene(family, &catalog, seed, realistic))
+                .collect();
+            let refs: Vec<_> = frames
+                .iter()
+                .map(|f| (f.centroids.as_slice(), given_magnitudes(f)))
+                .collect();
+            let ids = solver
+                .identify_batch(&refs, &camera, &config, None)
+                .expect("batch");
+            let learned: Vec<f64> = ids.iter().filter_map(|r| r.learned_sigma_px).collect();
+            println!(
+                "{}: batch searched {} frames again with a learned noise of {:.3} px",
+                family.name(),
+                learned.len(),
+                learned.first().copied().unwrap_or(f64::NAN)
+            );
+            ids.into_iter()
+        } else {
+            Vec::new().into_iter()
+        };
         for seed in 0..scenes {
             let f = scene(family, &catalog, seed, realistic);
             let t = f.real_stars();
             let mags = given_magnitudes(&f);
-            let r = solver
-                .identify(&f.centroids, mags, &camera, &config)
-                .expect("identify");
+            let r = match batch.next() {
+                Some(r) => r,
+                None => solver
+                    .identify(&f.centroids, mags, &camera, &config)
+                    .expect("identify"),
+            };
             // STARID_FAST_REPEAT=R: a scene identified in under STARID_FAST_US µs (default 100) is
             // identified R more times (for profilers: typical scenes outweigh the hopeless ones).
             if r.elapsed.as_secs_f64() < fast_s {
@@ -298,6 +332,29 @@ fn main() {
                         c += 1;
                     } else {
                         w += 1;
+                    }
+                }
+            }
+            if w > 0 && std::env::var("STARID_WRONG").is_ok() {
+                println!(
+                    "  wrong seed {seed}: {w} wrong, {c} right of {t} real, {} spots; sigma {:.3} px, \
+                     radius {:.2} px, bound {:.1e}, {} hypotheses",
+                    f.centroids.len(),
+                    r.centroid_sigma_px,
+                    r.match_radius_rad * camera.focal_length_px,
+                    r.false_match_probability,
+                    r.hypotheses
+                );
+                for (o, (got, want)) in r.catalog_index.iter().zip(&f.catalog_index).enumerate() {
+                    if got.is_some() && got != want {
+                        println!(
+                            "    spot {o} ({}) named {} at {:.2} px, magnitude {:.2} against {:.2}",
+                            want.map_or("false".to_string(), |s| format!("star {s}")),
+                            got.unwrap_or_default(),
+                            r.residuals_rad[o] * camera.focal_length_px,
+                            f.magnitudes[o],
+                            catalog.mag()[got.unwrap_or_default() as usize]
+                        );
                     }
                 }
             }

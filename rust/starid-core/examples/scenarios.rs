@@ -7,6 +7,7 @@
 //!
 //! `REPEAT` identifies every frame that many times (for profilers); each frame's time is its fastest.
 //! Environment: `STARID_FOV_TOLERANCE` sets `fov_tolerance` (0 holds the field as given);
+//! `STARID_SIGMA_FACTOR=K` states a centroid noise K times the true one;
 //! `STARID_FAST_ONLY` repeats only frames under 150 µs (profile typical frames, not
 //! the hopeless ones); `STARID_HYP` prints hypothesis counts; `STARID_FAILS` lists failures and
 //! wrong ids; `STARID_SEED=N` runs one frame; `STARID_ORDER_ONLY` gives the centroids brightest
@@ -107,6 +108,11 @@ fn main() {
         )
         .expect("camera");
         let solver = Solver::for_camera(catalog.clone(), &camera).expect("index");
+        // STARID_SIGMA_FACTOR: the solver is told a centroid noise this many times the true one.
+        if let Ok(v) = std::env::var("STARID_SIGMA_FACTOR") {
+            let k: f64 = v.parse().expect("STARID_SIGMA_FACTOR");
+            config.centroid_sigma_px = Some(k * sc.sim.noise_px);
+        }
         let order_only = std::env::var("STARID_ORDER_ONLY").is_ok();
         let realistic = std::env::var("STARID_REALISTIC").is_ok();
         if realistic {
@@ -234,12 +240,23 @@ fn main() {
                         );
                     }
                 }
-                for (got, want) in r.catalog_index.iter().zip(&f.catalog_index) {
+                for (o, (got, want)) in r.catalog_index.iter().zip(&f.catalog_index).enumerate() {
                     if got.is_some() {
                         ids += 1;
                         wrong_ids += usize::from(got != want);
                         if got != want && std::env::var("STARID_FAILS").is_ok() {
-                            println!("  wrong id seed {fi}: got {got:?} want {want:?}");
+                            println!(
+                                "  wrong id seed {fi}: got {got:?} want {want:?} at {:.2} px; \
+                                 {} matched, noise {:.2} px (step {:.2}), radius {:.2} px; \
+                                 magnitude {:.2} against {:.2}",
+                                r.residuals_rad[o] * told.focal_length_px,
+                                r.matched,
+                                r.centroid_sigma_px,
+                                r.noise_step_px,
+                                r.match_radius_rad * told.focal_length_px,
+                                f.magnitudes[o],
+                                catalog.mag()[got.unwrap_or_default() as usize]
+                            );
                         }
                     }
                 }

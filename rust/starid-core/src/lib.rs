@@ -73,6 +73,7 @@ pub mod unknown_focal;
 pub use catalog::Catalog;
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Camera;
+pub use identify::NoiseSource;
 pub use identify::{
     AttitudeHint, Cancel, FrameRef, HintFallback, Identification, IdentifyConfig, Method, Solver,
     Status,

@@ -41,6 +41,9 @@ pub const MAX_FOCAL_HYPOTHESES: usize = 8;
 const PER_FOCAL_HYPOTHESES: usize = 3000;
 const PER_FOCAL_PAIRS: usize = 2_000_000;
 
+/// The noise ladder of a search with the focal length unknown (px).
+const UNKNOWN_FOCAL_SIGMA_LADDER_PX: [f64; 2] = [0.3, 1.0];
+
 /// Brightest stars whose triangles are searched.
 const SEARCH_STARS: usize = 10;
 
@@ -184,10 +187,7 @@ impl Solver {
         }
         let top = &order[..n.min(SEARCH_STARS)];
         let confirm_pool = &order[..n.min(CONFIRM_STARS)];
-        let ladder: Vec<f64> = match config.centroid_sigma_px {
-            Some(s) => vec![s],
-            None => vec![0.3, 1.0],
-        };
+        let ladder = config.noise_ladder(&UNKNOWN_FOCAL_SIGMA_LADDER_PX);
         let deadline = config.timeout.map(|t| start + t);
         // A right focal length identifies in a few hundred hypotheses; a wrong one should not
         // cost the full budget.

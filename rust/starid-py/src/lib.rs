@@ -71,7 +71,7 @@ pub struct PyIdentifyConfig {
 }
 
 /// Names of the settings, in the constructor's order.
-const SETTINGS: [&str; 16] = [
+const SETTINGS: [&str; 18] = [
     "centroid_sigma_px",
     "max_false_match_prob",
     "min_matches",
@@ -88,6 +88,8 @@ const SETTINGS: [&str; 16] = [
     "focal_check",
     "fov_tolerance",
     "learn_zero_point",
+    "learn_noise",
+    "noise_fallback",
 ];
 
 #[pymethods]
@@ -97,7 +99,8 @@ impl PyIdentifyConfig {
                         max_search_stars=None, max_hypotheses=None, max_pairs_visited=None,
                         allow_mirrored=None, timeout_s=None, method=None, mag_offset=0.0,
                         mag_tolerance=None, brightness_order=None, verify=None,
-                        focal_check=None, fov_tolerance=None, learn_zero_point=None))]
+                        focal_check=None, fov_tolerance=None, learn_zero_point=None,
+                        learn_noise=None, noise_fallback=None))]
     fn new(
         centroid_sigma_px: Option<f64>,
         max_false_match_prob: Option<f64>,
@@ -115,6 +118,8 @@ impl PyIdentifyConfig {
         focal_check: Option<bool>,
         fov_tolerance: Option<f64>,
         learn_zero_point: Option<bool>,
+        learn_noise: Option<bool>,
+        noise_fallback: Option<bool>,
     ) -> PyResult<Self> {
         let timeout = match timeout_s {
             None => None,
@@ -149,6 +154,8 @@ impl PyIdentifyConfig {
             focal_check: focal_check.unwrap_or(d.focal_check),
             fov_tolerance: fov_tolerance.unwrap_or(d.fov_tolerance),
             learn_zero_point: learn_zero_point.unwrap_or(d.learn_zero_point),
+            learn_noise: learn_noise.unwrap_or(d.learn_noise),
+            noise_fallback: noise_fallback.unwrap_or(d.noise_fallback),
         };
         inner.validate().map_err(PyStaridError)?;
         Ok(Self { inner })
@@ -180,6 +187,8 @@ impl PyIdentifyConfig {
         d.set_item("focal_check", c.focal_check)?;
         d.set_item("fov_tolerance", c.fov_tolerance)?;
         d.set_item("learn_zero_point", c.learn_zero_point)?;
+        d.set_item("learn_noise", c.learn_noise)?;
+        d.set_item("noise_fallback", c.noise_fallback)?;
         Ok(d)
     }
 
@@ -269,6 +278,19 @@ impl PyIdentifyConfig {
     #[getter]
     fn learn_zero_point(&self) -> bool {
         self.inner.learn_zero_point
+    }
+    /// In ``identify_many``, learn the centroid noise from the frames identified with a wide
+    /// margin (when ``centroid_sigma_px`` is None) and search the ones nothing identified again
+    /// with it where it is tighter than the default ladder's; False: each frame alone.
+    #[getter]
+    fn learn_noise(&self) -> bool {
+        self.inner.learn_noise
+    }
+    /// After a stated ``centroid_sigma_px`` that the residuals refuse as too small, try the
+    /// default ladder's looser steps; False: the stated noise only.
+    #[getter]
+    fn noise_fallback(&self) -> bool {
+        self.inner.noise_fallback
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

@@ -89,6 +89,33 @@ impl Solver {
         agreed_zero_point(&z, &s, config.mag_tolerance)
     }
 
+    /// The centroid noise (px) a batch's frames identified with a wide margin agree on: the
+    /// median of their residuals (each scaled by `sqrt(2m / (2m − 3))` for the attitude's three
+    /// degrees of freedom among `m` matches) over 1.1774, the median of a Rayleigh distribution
+    /// of unit σ. From at least [`NOISE_LEARN_MIN_FRAMES`] frames of at least
+    /// [`NOISE_LEARN_MIN_MATCHES`] verified matches; `None` otherwise.
+    pub(crate) fn learn_noise(&self, out: &[Identification], camera: &Camera) -> Option<f64> {
+        let mut d = Vec::new();
+        let mut frames = 0;
+        for id in out
+            .iter()
+            .filter(|id| id.is_identified() && id.verified && id.matched >= NOISE_LEARN_MIN_MATCHES)
+        {
+            let f = id.focal_length_px.unwrap_or(camera.focal_length_px);
+            let m = id.matched as f64;
+            let dof = (2.0 * m / (2.0 * m - 3.0)).sqrt();
+            d.extend(
+                id.residuals_rad
+                    .iter()
+                    .filter(|r| r.is_finite())
+                    .map(|r| r * f * dof),
+            );
+            frames += 1;
+        }
+        (frames >= NOISE_LEARN_MIN_FRAMES && !d.is_empty())
+            .then(|| stats::median_in_place(&mut d) / 1.1774)
+    }
+
     /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
     /// `threads` is not 1 (`None`: all cores). Results come in input order and do not depend on
     /// the thread count. A malformed frame does not stop the batch: its result has status
@@ -188,37 +215,78 @@ impl Solver {
                 }
                 Ok(out)
             };
-        let both = || -> Result<Vec<Identification>> {
-            let mut out = run(None, config)?;
-            // A zero point the identified frames agree on: the frames nothing identified
-            // without it are searched again, magnitude-gated (nothing is measured while every
-            // frame with magnitudes is identified).
-            let failed = |i: usize| {
-                matches!(out[i].status, Status::NoMatch | Status::SearchLimit)
-                    && frames[i].1.is_some()
-            };
-            if !config.learn_zero_point || !(0..frames.len()).any(failed) {
-                return Ok(out);
-            }
-            let Some(learned) = self
-                .learn_zero_point(frames, &out, config)
-                .and_then(|zp| config.with_learned_zero_point(zp))
-            else {
-                return Ok(out);
-            };
-            let offset = learned.mag_offset.unwrap_or_default();
-            let redo: Vec<usize> = (0..frames.len()).filter(|&i| failed(i)).collect();
-            for (i, mut id) in redo.iter().zip(run(Some(&redo), &learned)?) {
+        // The frames `redo` searched again with `config`: a frame identified now takes the new
+        // result, marked by `mark`; either way its time and hypotheses count both searches.
+        let again = |out: &mut [Identification],
+                     redo: &[usize],
+                     config: &IdentifyConfig,
+                     mark: &dyn Fn(&mut Identification)|
+         -> Result<()> {
+            for (i, mut id) in redo.iter().zip(run(Some(redo), config)?) {
                 id.elapsed += out[*i].elapsed;
                 id.hypotheses += out[*i].hypotheses;
                 if id.is_identified() {
-                    id.learned_mag_offset = Some(offset);
+                    mark(&mut id);
                     out[*i] = id;
                 } else {
                     out[*i].elapsed = id.elapsed;
                     out[*i].hypotheses = id.hypotheses;
                 }
             }
+            Ok(())
+        };
+        let failed = |out: &[Identification]| -> Vec<usize> {
+            (0..frames.len())
+                .filter(|&i| matches!(out[i].status, Status::NoMatch | Status::SearchLimit))
+                .collect()
+        };
+        let both = || -> Result<Vec<Identification>> {
+            let mut out = run(None, config)?;
+            // A zero point the identified frames agree on: the frames with magnitudes nothing
+            // identified without it are searched again, magnitude-gated (nothing is measured
+            // while every frame with magnitudes is identified).
+            let mut config = config.clone();
+            let mut learned_offset = None;
+            let with_magnitudes: Vec<usize> = failed(&out)
+                .into_iter()
+                .filter(|&i| frames[i].1.is_some())
+                .collect();
+            if config.learn_zero_point && !with_magnitudes.is_empty() {
+                if let Some(learned) = self
+                    .learn_zero_point(frames, &out, &config)
+                    .and_then(|zp| config.with_learned_zero_point(zp))
+                {
+                    let offset = learned.mag_offset;
+                    again(&mut out, &with_magnitudes, &learned, &|id| {
+                        id.learned_mag_offset = offset;
+                    })?;
+                    learned_offset = offset;
+                    config = learned;
+                }
+            }
+            // A centroid noise the frames identified with a wide margin agree on, tighter than
+            // the ladder's first step: the frames still unidentified are searched again with it
+            // alone (a tighter radius lets fewer stars pass the bound).
+            let redo = failed(&out);
+            if !config.learn_noise || config.centroid_sigma_px.is_some() || redo.is_empty() {
+                return Ok(out);
+            }
+            let Some(sigma) = self
+                .learn_noise(&out, camera)
+                .filter(|&s| s < NOISE_LEARN_BELOW_LADDER * SIGMA_LADDER_PX[0] && s > 0.0)
+            else {
+                return Ok(out);
+            };
+            let learned = IdentifyConfig {
+                centroid_sigma_px: Some(sigma),
+                noise_fallback: false,
+                ..config.clone()
+            };
+            again(&mut out, &redo, &learned, &|id| {
+                id.learned_sigma_px = Some(sigma);
+                id.noise_source = NoiseSource::Learned;
+                id.learned_mag_offset = learned_offset;
+            })?;
             Ok(out)
         };
         #[cfg(feature = "parallel")]

@@ -5,7 +5,9 @@ use super::*;
 /// Settings of [`Solver::identify`]. Build with `..Default::default()`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IdentifyConfig {
-    /// Centroid noise, 1σ per axis in pixels. `None`: try [`SIGMA_LADDER_PX`] in turn.
+    /// Centroid noise, 1σ per axis in pixels: tried first, as a hypothesis the residuals may
+    /// refuse (then the default ladder's steps well above it follow; see
+    /// [`IdentifyConfig::noise_ladder`]). `None`: try [`SIGMA_LADDER_PX`] in turn.
     pub centroid_sigma_px: Option<f64>,
     /// Largest accepted bound on the probability that the solution is a false match.
     pub max_false_match_prob: f64,
@@ -64,6 +66,15 @@ pub struct IdentifyConfig {
     /// `search_limit`) are searched again, magnitude-gated, with it. Only where the given
     /// `mag_offset` is `None` or disagrees with the learned one. `false`: each frame alone.
     pub learn_zero_point: bool,
+    /// In a batch, learn the centroid noise from the frames identified with a wide margin
+    /// (at least [`NOISE_LEARN_MIN_MATCHES`] matches each, [`NOISE_LEARN_MIN_FRAMES`] frames)
+    /// when none is stated (the default): where it is tighter than the ladder's first step, the
+    /// frames nothing identified are searched again with it (as a stated noise the residuals
+    /// may refuse). `false`: each frame alone.
+    pub learn_noise: bool,
+    /// After a stated `centroid_sigma_px`, try the default ladder's steps well above it
+    /// (see [`IdentifyConfig::noise_ladder`]; the default). `false`: the stated noise only.
+    pub noise_fallback: bool,
 }
 
 /// How hypotheses are generated. Every method's hypotheses pass the same verification.
@@ -209,6 +220,8 @@ impl Default for IdentifyConfig {
             focal_check: true,
             fov_tolerance: DEFAULT_FOV_TOLERANCE,
             learn_zero_point: true,
+            learn_noise: true,
+            noise_fallback: true,
         }
     }
 }
@@ -247,6 +260,32 @@ impl IdentifyConfig {
                 mag_tolerance: tolerance,
                 ..self.clone()
             })
+    }
+
+    /// The noise steps (px) a search tries in turn: `default` without a stated noise; with
+    /// one, the stated noise and then (with `noise_fallback`) the steps of `default` at least
+    /// [`NOISE_LADDER_GAP`] times it, so that a noise stated too small costs a looser search,
+    /// not the frame.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{identify::SIGMA_LADDER_PX, IdentifyConfig};
+    /// let stated = IdentifyConfig { centroid_sigma_px: Some(0.1), ..Default::default() };
+    /// assert_eq!(stated.noise_ladder(&SIGMA_LADDER_PX), vec![0.1, 0.7, 2.5]);
+    /// assert_eq!(IdentifyConfig::default().noise_ladder(&SIGMA_LADDER_PX), SIGMA_LADDER_PX.to_vec());
+    /// ```
+    pub fn noise_ladder(&self, default: &[f64]) -> Vec<f64> {
+        match self.centroid_sigma_px {
+            Some(s) => std::iter::once(s)
+                .chain(
+                    default
+                        .iter()
+                        .copied()
+                        .filter(|&d| self.noise_fallback && d >= NOISE_LADDER_GAP * s),
+                )
+                .collect(),
+            None => default.to_vec(),
+        }
     }
 
     /// Check every setting.

@@ -270,10 +270,7 @@ impl Solver {
         };
         // A finer noise ladder than lost in space's: each step is cheap here, and the match
         // radius follows the step, so a step near the true noise keeps coincidences out.
-        let ladder: &[f64] = match &config.centroid_sigma_px {
-            Some(s) => std::slice::from_ref(s),
-            None => &HINT_SIGMA_LADDER_PX,
-        };
+        let ladder = config.noise_ladder(&HINT_SIGMA_LADDER_PX);
         // With calibrated magnitudes a centroid matches only stars its brightness allows (as
         // lost in space's gated passes do), and the bound counts only those.
         windows.clear();
@@ -476,6 +473,7 @@ impl Solver {
         let mut id = found.into_identification(hypotheses, Duration::ZERO);
         id.method = config.method;
         id.hinted = true;
+        id.noise_source = super::NoiseSource::of(config, &id);
         Ok(id)
     }
 }

@@ -59,6 +59,7 @@ mod hinted;
 mod join;
 mod magbins;
 mod near;
+mod noise;
 mod pyramid;
 mod result;
 pub mod scale;
@@ -92,6 +93,20 @@ pub const BATCH_CHUNK: usize = 16_384;
 
 /// Centroid noise levels (1σ per axis, pixels) tried in turn when none is given.
 pub const SIGMA_LADDER_PX: [f64; 3] = [0.2, 0.7, 2.5];
+
+/// How far above a stated noise the default ladder's next step lies (see
+/// [`IdentifyConfig::noise_ladder`]).
+pub const NOISE_LADDER_GAP: f64 = 2.5;
+
+/// Fewest matches of a frame whose residuals a batch learns the centroid noise from.
+pub const NOISE_LEARN_MIN_MATCHES: usize = 8;
+
+/// Fewest such frames for a batch to learn the noise.
+pub const NOISE_LEARN_MIN_FRAMES: usize = 3;
+
+/// A learned noise below this fraction of the ladder's first step has a batch's failed frames
+/// searched again with it (above, the ladder has tried as tight a noise already).
+pub const NOISE_LEARN_BELOW_LADDER: f64 = 0.75;
 
 /// A solution whose noise estimate reached this (pixels), found with a given field of view that
 /// the focal check did not confirm, leaves the field in doubt (see

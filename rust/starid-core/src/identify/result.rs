@@ -41,6 +41,53 @@ impl Status {
     }
 }
 
+/// Where the noise a solution was verified at came from (see
+/// [`Identification::noise_step_px`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum NoiseSource {
+    /// Unidentified, or a method's raw answer: no noise was tested.
+    None,
+    /// A step of the default ladder: no noise was stated.
+    Ladder,
+    /// The stated [`IdentifyConfig::centroid_sigma_px`]: the residuals bore it out.
+    Stated,
+    /// A looser step than the stated noise: the residuals refused it as too small.
+    Widened,
+    /// The noise a batch learned from its frames identified with a wide margin.
+    Learned,
+}
+
+impl NoiseSource {
+    /// Lower-case name: `none`, `ladder`, `stated`, `widened`, `learned`.
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::NoiseSource::Widened.as_str(), "widened");
+    /// ```
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Ladder => "ladder",
+            Self::Stated => "stated",
+            Self::Widened => "widened",
+            Self::Learned => "learned",
+        }
+    }
+
+    /// The source of a verified solution found with `config` at the noise step `step_px`.
+    pub(crate) fn of(config: &IdentifyConfig, id: &Identification) -> Self {
+        if !(id.is_identified() && id.verified) {
+            return Self::None;
+        }
+        match config.centroid_sigma_px {
+            None => Self::Ladder,
+            Some(s) if (id.noise_step_px - s).abs() <= 1e-9 * s => Self::Stated,
+            Some(_) => Self::Widened,
+        }
+    }
+}
+
 /// The outcome of identifying one frame.
 #[derive(Debug, Clone)]
 pub struct Identification {
@@ -61,6 +108,17 @@ pub struct Identification {
     pub matched: usize,
     /// Centroid noise estimated from the residuals (1σ per axis, px); NaN when unidentified.
     pub centroid_sigma_px: f64,
+    /// The noise hypothesis (1σ per axis, px) the solution was verified at: a step of the
+    /// default ladder, the stated [`IdentifyConfig::centroid_sigma_px`] or a looser step after
+    /// the residuals refused it, or the noise a batch learned (`learned_sigma_px`). NaN when
+    /// unidentified.
+    pub noise_step_px: f64,
+    /// The centroid noise (px) a batch learned from its frames identified with a wide margin
+    /// and searched this frame with, after a first search without it found nothing (see
+    /// [`Solver::identify_batch`]); `None` for a frame identified as given.
+    pub learned_sigma_px: Option<f64>,
+    /// Where `noise_step_px` came from.
+    pub noise_source: NoiseSource,
     /// Radius within which a centroid was matched to a star, radians; NaN when unidentified.
     pub match_radius_rad: f64,
     /// Catalogue-triangle hypotheses tested.
@@ -178,6 +236,9 @@ impl Identification {
             false_match_probability: 1.0,
             matched: 0,
             centroid_sigma_px: f64::NAN,
+            noise_step_px: f64::NAN,
+            learned_sigma_px: None,
+            noise_source: NoiseSource::None,
             match_radius_rad: f64::NAN,
             hypotheses,
             elapsed,

@@ -161,6 +161,8 @@ pub(super) struct Verified {
     pub(super) matches: Vec<Option<(u32, f64)>>,
     pub(super) matched: usize,
     pub(super) sigma_px: f64,
+    /// The noise hypothesis (px) the solution was verified at: the search step's.
+    pub(super) step_sigma_px: f64,
     pub(super) radius_rad: f64,
     /// Binomial tail of the match count under a false hypothesis.
     pub(super) tail: f64,
@@ -186,6 +188,7 @@ impl Verified {
             matches,
             matched,
             sigma_px: f64::NAN,
+            step_sigma_px: f64::NAN,
             radius_rad: f64::NAN,
             tail: 1.0,
             false_prob: 1.0,
@@ -212,6 +215,9 @@ impl Verified {
             false_match_probability: self.false_prob,
             matched: self.matched,
             centroid_sigma_px: self.sigma_px,
+            noise_step_px: self.step_sigma_px,
+            learned_sigma_px: None,
+            noise_source: NoiseSource::None,
             match_radius_rad: self.radius_rad,
             hypotheses,
             elapsed,

@@ -348,6 +348,7 @@ impl Solver {
         if self.field_in_doubt(&id, centroids, camera, config, start) {
             self.search_within_tolerance(centroids, magnitudes, camera, config, &mut id)?;
         }
+        id.noise_source = NoiseSource::of(config, &id);
         id.elapsed = start.elapsed();
         Ok(id)
     }
@@ -393,12 +394,9 @@ impl Solver {
             );
         }
         brightness_order_into(n, magnitudes, order);
-        let ladder: &[f64] = match &config.centroid_sigma_px {
-            Some(s) => std::slice::from_ref(s),
-            None => &SIGMA_LADDER_PX,
-        };
+        let ladder = config.noise_ladder(&SIGMA_LADDER_PX);
         let gated = self.magnitudes_fit(magnitudes, config);
-        self.passes(n, ladder, magnitudes.is_some(), gated, config, passes);
+        self.passes(n, &ladder, magnitudes.is_some(), gated, config, passes);
         // Catalogue-magnitude windows of each centroid (known zero point): the tight one first
         // (fewer hypotheses compete, so a solution of few stars can pass the bound), then the
         // configured one.

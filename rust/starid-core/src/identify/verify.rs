@@ -9,7 +9,7 @@ use super::near::{gate_allows, nearest_match, unambiguous_nearest, Nearest};
 use super::stats::{binomial_tail, kth_in_place, median_in_place};
 use super::{
     Search, Verified, CONFIRM_POOL, MAG_BRIGHTER_LIMIT, MAG_CHECK_MIN_MATCHES, MAG_OUTLIER_SIGMAS,
-    MATCH_RADIUS_SIGMAS,
+    MATCH_RADIUS_SIGMAS, SIGMA_LADDER_PX,
 };
 use crate::attitude::wahba_from;
 use crate::sky::Radius;
@@ -190,15 +190,7 @@ impl Search<'_> {
                 return None;
             }
             r = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)?;
-            let cat = self.solver.catalog.vectors();
-            for (o, m) in self.scratch.matches.iter_mut().enumerate() {
-                if let Some((star, d)) = m {
-                    *d = r
-                        .inverse_transform_vector(&obs[o])
-                        .cross(&cat[*star as usize])
-                        .norm();
-                }
-            }
+            self.refresh_residuals(&r, obs);
         }
         if matched < self.config.min_matches {
             return None;
@@ -214,12 +206,32 @@ impl Search<'_> {
         if self.hypotheses as f64 * tail > limit {
             return None;
         }
+        // A stated noise is a hypothesis the residuals may refuse: too small, the solution is
+        // refused (a looser step finds it with the noise it has); too large, its matches are
+        // judged again at the noise measured. So is a loose step of the default ladder (too
+        // large for a frame its tighter steps could not solve for want of stars).
+        let (mut radius, mut sigma) = (radius, sigma);
+        let stated = self.config.centroid_sigma_px.is_some();
+        // (Two spots left unmatched at least: fewer cannot refuse it. The default ladder's
+        // steps are not tested so: residuals that grow towards the edges there are a focal
+        // length or distortion that the focal check corrects, and the next step is looser.)
+        if stated && n >= matched + 2 && self.noise_too_small(&r, obs, (radius, sigma), matched) {
+            return None;
+        }
+        if stated || sigma_rad * f > SIGMA_LADDER_PX[0] {
+            if let Some((r2, m2, radius2, sigma2)) =
+                self.rejudge_at_measured_noise(&r, obs, (radius, sigma), sigma_rad, matched)
+            {
+                (r, matched, radius, sigma) = (r2, m2, radius2, sigma2);
+            }
+        }
         Some(Verified {
             r,
             mirrored,
             matches: self.scratch.matches.clone(),
             matched,
             sigma_px: sigma * f,
+            step_sigma_px: sigma_rad * f,
             radius_rad: radius,
             tail,
             false_prob: f64::NAN,

@@ -10,7 +10,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
-use starid_core::{geometry, Camera, Catalog, Identification, SimFrame, Status};
+use starid_core::{geometry, Camera, Catalog, Identification, NoiseSource, SimFrame, Status};
 
 const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
@@ -107,6 +107,17 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 /// k1 : float
 ///     The radial distortion of the camera the solution was found with: the given camera's, or
 ///     the one the focal check found when the given one proved off (0 without a camera).
+/// noise_step_px : float
+///     The centroid noise (1 sigma per axis, pixels) the solution was verified at: tried as a
+///     hypothesis the residuals can refuse (NaN when not ``ok``).
+/// noise_source : str
+///     Where ``noise_step_px`` came from: ``"ladder"`` (no noise stated; the default steps),
+///     ``"stated"`` (``centroid_sigma_px``, borne out by the residuals), ``"widened"`` (the
+///     stated noise refused as too small; a looser step), ``"learned"`` (the noise
+///     ``identify_many`` learned from its frames), ``"none"`` when not ``ok``.
+/// learned_sigma_px : float or None
+///     In ``identify_many``, the centroid noise the batch learned and searched this frame again
+///     with (``IdentifyConfig.learn_noise``); None for a frame identified as given.
 /// learned_mag_offset : float or None
 ///     In ``identify_many``, the magnitude zero point the batch learned from its other frames
 ///     and identified this frame with, magnitude-gated, after a search without it found nothing
@@ -136,6 +147,9 @@ pub struct PyIdentification {
     focal_px: f64,
     focal_sigma_px: f64,
     learned_mag_offset: Option<f64>,
+    noise_step_px: f64,
+    noise_source: &'static str,
+    learned_sigma_px: Option<f64>,
     k1: f64,
     /// The camera's distortion beyond `k1`: `[k2, k3, p1, p2]`.
     higher: [f64; 4],
@@ -244,6 +258,9 @@ impl PyIdentification {
             focal_px: camera.focal_length_px,
             focal_sigma_px,
             learned_mag_offset: id.learned_mag_offset,
+            noise_step_px: id.noise_step_px,
+            noise_source: id.noise_source.as_str(),
+            learned_sigma_px: id.learned_sigma_px,
             k1: camera.k1,
             higher: camera.higher_distortion(),
             ids_array: PyOnceLock::new(),
@@ -304,11 +321,11 @@ type State = (
     bool,
     f64,
     usize,
-    [f64; 18],
+    [f64; 20],
     usize,
     String,
     Option<String>,
-    (bool, bool, Option<String>, SpotState),
+    (bool, bool, Option<String>, SpotState, String),
 );
 
 /// The spots of a pickled result: centroids, magnitudes, and each spot's star (ra, dec, mag).
@@ -454,6 +471,18 @@ impl PyIdentification {
     #[getter]
     fn learned_mag_offset(&self) -> Option<f64> {
         self.learned_mag_offset
+    }
+    #[getter]
+    fn noise_step_px(&self) -> f64 {
+        self.noise_step_px
+    }
+    #[getter]
+    fn noise_source(&self) -> &'static str {
+        self.noise_source
+    }
+    #[getter]
+    fn learned_sigma_px(&self) -> Option<f64> {
+        self.learned_sigma_px
     }
     #[getter]
     fn k1(&self) -> f64 {
@@ -610,6 +639,8 @@ impl PyIdentification {
                 me.higher[1],
                 me.higher[2],
                 me.higher[3],
+                me.noise_step_px,
+                me.learned_sigma_px.unwrap_or(f64::NAN),
             ],
             me.hypotheses,
             me.method.to_string(),
@@ -623,6 +654,7 @@ impl PyIdentification {
                     me.spots.magnitudes.clone(),
                     me.spots.stars(me.ids.len()).to_vec(),
                 ),
+                me.noise_source.to_string(),
             ),
         );
         Ok((slf.get_type().getattr("_from_state")?, (state,)))
@@ -642,8 +674,19 @@ impl PyIdentification {
             hypotheses,
             method,
             message,
-            (hinted, verified, catalog, (xy, magnitudes, stars)),
+            (hinted, verified, catalog, (xy, magnitudes, stars), noise_source),
         ) = state;
+        let noise_source = [
+            NoiseSource::None,
+            NoiseSource::Ladder,
+            NoiseSource::Stated,
+            NoiseSource::Widened,
+            NoiseSource::Learned,
+        ]
+        .into_iter()
+        .map(|s| s.as_str())
+        .find(|s| *s == noise_source)
+        .ok_or_else(|| PyValueError::new_err(format!("unknown noise source {noise_source:?}")))?;
         let method = starid_core::Method::from_name(&method)
             .map_err(|e| PyValueError::new_err(e.to_string()))?
             .name();
@@ -685,7 +728,7 @@ impl PyIdentification {
         } else {
             stars
         };
-        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy, read_s, extract_s, k2, k3, p1, p2] =
+        let [centroid_sigma_px, match_radius_arcsec, time_s, fov_deg, focal_px, focal_sigma_px, learned, k1, w, h, cx, cy, read_s, extract_s, k2, k3, p1, p2, noise_step_px, learned_sigma] =
             floats;
         Ok(Self {
             status,
@@ -708,6 +751,9 @@ impl PyIdentification {
             focal_px,
             focal_sigma_px,
             learned_mag_offset: (!learned.is_nan()).then_some(learned),
+            noise_step_px,
+            noise_source,
+            learned_sigma_px: (!learned_sigma.is_nan()).then_some(learned_sigma),
             k1,
             higher: [k2, k3, p1, p2],
             ids_array: PyOnceLock::new(),
@@ -776,6 +822,9 @@ impl PyIdentification {
         d.set_item("focal_px", json_float(py, self.focal_px)?)?;
         d.set_item("focal_sigma_px", json_float(py, self.focal_sigma_px)?)?;
         d.set_item("learned_mag_offset", self.learned_mag_offset)?;
+        d.set_item("noise_step_px", json_float(py, self.noise_step_px)?)?;
+        d.set_item("noise_source", self.noise_source)?;
+        d.set_item("learned_sigma_px", self.learned_sigma_px)?;
         d.set_item("k1", self.k1)?;
         Ok(d)
     }

@@ -1,0 +1,222 @@
+//! The noise a solution is judged with, tested against its residuals: refused as too small when
+//! a wider radius brings in more spots than chance explains, judged again at the noise measured
+//! when that lies below it, and a far outlier tested against the other matches.
+
+use std::f64::consts::PI;
+
+use nalgebra::{Rotation3, Vector3};
+
+use super::near::{gate_allows, unambiguous_nearest};
+use super::stats::{binomial_tail, median_in_place};
+use super::verify::{LOOKUP_WORK, REGROW_FACTOR};
+use super::{Search, MATCH_RADIUS_SIGMAS};
+use crate::attitude::wahba_from;
+use crate::sky::Radius;
+
+impl Search<'_> {
+    /// Whether the noise the matches were judged with is refused as too small: matched again at
+    /// [`REGROW_FACTOR`] times the radius under the same attitude, more spots find a star than
+    /// chance coincidences explain (a Poisson tail below [`NOISE_REFUSE_TAIL`]; at least two).
+    /// Under the right noise the radius holds all but a few in 10⁴ of the real stars, so the
+    /// spots that come in are stars the noise left out.
+    pub(super) fn noise_too_small(
+        &mut self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        (radius, sigma): (f64, f64),
+        matched: usize,
+    ) -> bool {
+        let n = obs.len();
+        let catalog = &*self.solver.catalog;
+        let wide = REGROW_FACTOR * radius;
+        let within = Radius::new(wide);
+        let mut extra = 0;
+        for (o, v) in obs.iter().enumerate() {
+            if self.scratch.matches[o].is_some() {
+                continue;
+            }
+            self.pairs_visited += LOOKUP_WORK;
+            let w = r.inverse_transform_vector(v);
+            if let Some((star, _)) = unambiguous_nearest(catalog, &w, within, REGROW_FACTOR * sigma)
+            {
+                let claimed = self
+                    .scratch
+                    .matches
+                    .iter()
+                    .any(|m| m.is_some_and(|m| m.0 == star));
+                let allowed = gate_allows(self.gate, self.solver.mag_f32(), o, star);
+                extra += usize::from(!claimed && allowed);
+            }
+        }
+        if extra < 2 {
+            return false;
+        }
+        let frac = if self.gate.is_some() {
+            self.gate_fraction
+        } else {
+            1.0
+        };
+        let p = (self.field_density(r, false) * PI * wide * wide * frac).min(1.0);
+        binomial_tail(n - matched, extra, p) < NOISE_REFUSE_TAIL
+    }
+
+    /// Where the residuals of at least [`NOISE_MEASURE_MIN_MATCHES`] matches put the noise
+    /// below [`NOISE_REJUDGE_BELOW`] times the step's `sigma_rad`, the matches judged again at that noise (radius
+    /// [`MATCH_RADIUS_SIGMAS`] of it) and the attitude refitted: a radius wider than the noise
+    /// lets false spots near faint stars in. Returns the attitude, matches, radius and noise,
+    /// or `None` where the noise fits (or the matches fall below `min_matches`, and the matches
+    /// are left as they were).
+    pub(super) fn rejudge_at_measured_noise(
+        &mut self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        (radius0, sigma0): (f64, f64),
+        sigma_rad: f64,
+        matched: usize,
+    ) -> Option<(Rotation3<f64>, usize, f64, f64)> {
+        let kept = self.scratch.matches.clone();
+        let (mut r, mut matched, mut sigma) = (*r, matched, sigma_rad);
+        let mut judged = None;
+        while matched > NOISE_MEASURE_MIN_MATCHES {
+            let Some(r2) = self.drop_far_outlier(&r, obs) else {
+                break;
+            };
+            r = r2;
+            matched -= 1;
+            judged = Some((r, matched, f64::NAN, f64::NAN));
+        }
+        // A false match far out pulls the attitude of a few stars and so the others' residuals:
+        // measured again once it is gone, the noise comes out lower.
+        for _ in 0..NOISE_REJUDGE_ROUNDS {
+            if matched < NOISE_MEASURE_MIN_MATCHES {
+                break;
+            }
+            let s = &mut self.scratch;
+            let d = &mut s.mag_offsets;
+            d.clear();
+            d.extend(s.matches.iter().filter_map(|m| m.map(|(_, d)| d)));
+            // The median residual of a Rayleigh distribution is 1.1774σ; the attitude's three
+            // degrees of freedom shrink the residuals by about sqrt((2m − 3) / 2m).
+            let dof = (2 * matched) as f64 / (2 * matched - 3) as f64;
+            let measured = median_in_place(d) / 1.1774 * dof.sqrt();
+            if measured >= NOISE_REJUDGE_BELOW * sigma {
+                break;
+            }
+            let radius = MATCH_RADIUS_SIGMAS * measured + 1e-9;
+            let tight = self.match_all(&r, obs, radius, measured);
+            let Some(r2) = (tight >= 3)
+                .then(|| {
+                    self.collect_matched(obs);
+                    wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)
+                })
+                .flatten()
+            else {
+                break;
+            };
+            self.match_all(&r2, obs, radius, measured);
+            // Matching again may bring back a spot far brighter than its star.
+            self.drop_too_bright();
+            let m2 = self.scratch.matches.iter().filter(|m| m.is_some()).count();
+            if m2 < self.config.min_matches {
+                break;
+            }
+            (r, matched, sigma) = (r2, m2, measured);
+            judged = Some((r, matched, radius, measured));
+        }
+        if judged.is_none() {
+            self.scratch.matches = kept;
+        } else if let Some((_, _, radius, measured)) = judged.filter(|j| j.2.is_finite()) {
+            // The matches of the last attitude kept.
+            self.match_all(&r, obs, radius, measured);
+            self.drop_too_bright();
+            let m = self.scratch.matches.iter().filter(|m| m.is_some()).count();
+            if m < self.config.min_matches {
+                self.scratch.matches = kept;
+                return None;
+            }
+            return Some((r, m, radius, measured));
+        } else if matched >= self.config.min_matches {
+            // Only far outliers dropped: the radius and noise stay as they were.
+            self.refresh_residuals(&r, obs);
+            return Some((r, matched, radius0, sigma0));
+        } else {
+            self.scratch.matches = kept;
+        }
+        None
+    }
+
+    /// Each match's residual under the attitude `r`.
+    pub(super) fn refresh_residuals(&mut self, r: &Rotation3<f64>, obs: &[Vector3<f64>]) {
+        let cat = self.solver.catalog.vectors();
+        for (o, m) in self.scratch.matches.iter_mut().enumerate() {
+            if let Some((star, d)) = m {
+                *d = r
+                    .inverse_transform_vector(&obs[o])
+                    .cross(&cat[*star as usize])
+                    .norm();
+            }
+        }
+    }
+
+    /// The match of the largest residual, tested against the others: the attitude fitted to
+    /// the others, its residual under it beyond [`OUTLIER_SIGMAS`] times their noise (the
+    /// smaller of their rms and their median-based estimate) unmatches it. Returns that
+    /// attitude, or `None` where the match stays.
+    pub(super) fn drop_far_outlier(
+        &mut self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+    ) -> Option<Rotation3<f64>> {
+        let cat = self.solver.catalog.vectors();
+        let (k, star) = self
+            .scratch
+            .matches
+            .iter()
+            .enumerate()
+            .filter_map(|(o, m)| m.map(|(star, d)| (o, star, d)))
+            .max_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|(o, star, _)| (o, star))?;
+        let held = self.scratch.matches[k].take();
+        let m = self.collect_matched(obs);
+        let r2 = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, r)?;
+        let s = &mut self.scratch;
+        let d = &mut s.mag_offsets;
+        d.clear();
+        d.extend(
+            s.obs_matched
+                .iter()
+                .zip(&s.ref_matched)
+                .map(|(o, c)| (o - r2 * c).norm()),
+        );
+        let rms = (d.iter().map(|x| x * x).sum::<f64>() / (2 * m - 3) as f64).sqrt();
+        let dof = (2 * m) as f64 / (2 * m - 3) as f64;
+        let noise = (median_in_place(d) / 1.1774 * dof.sqrt()).min(rms);
+        let far = r2
+            .inverse_transform_vector(&obs[k])
+            .cross(&cat[star as usize])
+            .norm();
+        if far > OUTLIER_SIGMAS * noise {
+            Some(r2)
+        } else {
+            self.scratch.matches[k] = held;
+            None
+        }
+    }
+}
+
+/// A match whose residual exceeds this many times the noise of the others (under their own
+/// attitude) is a coincidence, not its star: a Rayleigh tail of 1.5e-8.
+pub(super) const OUTLIER_SIGMAS: f64 = 6.0;
+
+/// Most rounds of judging a solution's matches again at the noise measured.
+pub(super) const NOISE_REJUDGE_ROUNDS: usize = 3;
+
+/// A measured noise below this fraction of the step's has a solution's matches judged again.
+pub(super) const NOISE_REJUDGE_BELOW: f64 = 1.0;
+
+/// Chance, under the noise a solution was judged with, of the spots a wider radius adds: below
+/// it the noise is refused as too small (see `Search::noise_too_small`).
+pub(super) const NOISE_REFUSE_TAIL: f64 = 1e-3;
+
+/// Fewest matches whose residuals judge a stated noise too large.
+pub(super) const NOISE_MEASURE_MIN_MATCHES: usize = 6;

@@ -1,0 +1,118 @@
+//! The centroid noise is a hypothesis: a batch learns it from its frames identified with a wide
+//! margin and searches its failed frames again with it; a noise stated too large or too small
+//! costs identifications, never a wrong id, and the result says which noise it used.
+
+use starid_core::simulate::{simulate, Family};
+use starid_core::{Camera, FrameRef, IdentifyConfig, NoiseSource, SimFrame, Solver};
+
+use super::strategies::bundled;
+
+/// `n` Kelvins-style scenes (10°, 0–80 false spots) at centroid noise `noise_px`, their camera
+/// and solver.
+fn scenes(n: u64, noise_px: f64) -> (Solver, Camera, Vec<SimFrame>) {
+    let catalog = bundled();
+    let camera = Family::K1.camera();
+    let solver = Solver::for_camera(catalog.clone(), &camera).unwrap();
+    let scenes = (0..n)
+        .map(|s| {
+            let config = starid_core::SimConfig {
+                noise_px,
+                ..Family::K1.sim_config(s)
+            };
+            simulate(&catalog, &camera, &config, s).unwrap()
+        })
+        .collect();
+    (solver, camera, scenes)
+}
+
+fn refs(scenes: &[SimFrame]) -> Vec<FrameRef<'_>> {
+    scenes
+        .iter()
+        .map(|f| (f.centroids.as_slice(), Some(f.magnitudes.as_slice())))
+        .collect()
+}
+
+/// Right and wrong ids of a frame.
+fn score(ids: &[Option<u32>], truth: &[Option<u32>]) -> (usize, usize) {
+    ids.iter()
+        .zip(truth)
+        .filter(|(a, _)| a.is_some())
+        .fold(
+            (0, 0),
+            |(c, w), (a, b)| {
+                if a == b {
+                    (c + 1, w)
+                } else {
+                    (c, w + 1)
+                }
+            },
+        )
+}
+
+#[test]
+fn a_batch_learns_the_noise_and_identifies_few_star_scenes_with_it() {
+    let (solver, camera, scenes) = scenes(160, 0.1);
+    let refs = refs(&scenes);
+    let alone = IdentifyConfig {
+        learn_noise: false,
+        ..Default::default()
+    };
+    let first = solver.identify_batch(&refs, &camera, &alone, None).unwrap();
+    let ids = solver
+        .identify_batch(&refs, &camera, &IdentifyConfig::default(), None)
+        .unwrap();
+    let learned: Vec<f64> = ids.iter().filter_map(|r| r.learned_sigma_px).collect();
+    assert!(
+        !learned.is_empty(),
+        "no frame was searched with a learned noise"
+    );
+    for s in &learned {
+        assert!((0.08..0.12).contains(s), "learned {s} px, simulated 0.1");
+    }
+    let mut gained = 0;
+    for ((a, b), f) in first.iter().zip(&ids).zip(&scenes) {
+        assert_eq!(score(&b.catalog_index, &f.catalog_index).1, 0, "a wrong id");
+        if b.learned_sigma_px.is_some() {
+            assert!(!a.is_identified() && b.is_identified());
+            assert_eq!(b.noise_source, NoiseSource::Learned);
+            gained += 1;
+        } else {
+            assert_eq!(a.catalog_index, b.catalog_index);
+        }
+    }
+    assert!(gained >= 1);
+}
+
+#[test]
+fn a_noise_stated_four_times_off_either_way_costs_ids_never_a_wrong_one() {
+    let (solver, camera, scenes) = scenes(120, 0.2);
+    for (stated, source) in [(0.8, NoiseSource::Stated), (0.05, NoiseSource::Widened)] {
+        let config = IdentifyConfig {
+            centroid_sigma_px: Some(stated),
+            ..Default::default()
+        };
+        let mut sources = Vec::new();
+        let mut right = 0;
+        for f in &scenes {
+            let r = solver
+                .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)
+                .unwrap();
+            let (c, w) = score(&r.catalog_index, &f.catalog_index);
+            assert_eq!(w, 0, "stated {stated} px: a wrong id");
+            right += c;
+            if r.is_identified() {
+                sources.push(r.noise_source);
+                if r.noise_source == NoiseSource::Stated && stated > 0.2 && r.matched >= 8 {
+                    // Judged at the noise measured, not the stated one.
+                    assert!(
+                        r.centroid_sigma_px < 0.5 * stated,
+                        "{}",
+                        r.centroid_sigma_px
+                    );
+                }
+            }
+        }
+        assert!(right > 0);
+        assert!(sources.contains(&source), "stated {stated} px: {sources:?}");
+    }
+}
