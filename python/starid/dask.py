@@ -293,7 +293,7 @@ def identify_frames(
         frame for frame; a malformed frame or record gets status ``invalid_input``, never stops
         the job. With ``mag_offset=None`` (a zero point to learn), each partition is the batch
         that learns it, as ``identify_many`` over that partition's frames would: a job of many
-        partitions does not pool them.
+        partitions does not pool them. So is the centroid noise (``learn_noise``).
     """
     cam = _camera(kwargs.get("camera"), fov_deg, image_size) if (fov_deg is not None or kwargs.get("camera") is not None) else None
     cat = resolve_catalog_for(catalog, cam)  # as identify_many chooses

@@ -64,6 +64,20 @@ where
         .collect())
 }
 
+/// The centroid noise (px) pooled frames' residual samples
+/// ([`Identification::noise_sample_px`]) give: their median over 1.1774, the median of a
+/// Rayleigh distribution of unit σ; `None` from fewer than [`NOISE_LEARN_MIN_FRAMES`] frames.
+pub(crate) fn agreed_noise(samples: impl IntoIterator<Item = Vec<f64>>) -> Option<f64> {
+    let mut frames = 0;
+    let mut d = Vec::new();
+    for s in samples {
+        frames += 1;
+        d.extend(s);
+    }
+    (frames >= NOISE_LEARN_MIN_FRAMES && !d.is_empty())
+        .then(|| stats::median_in_place(&mut d) / 1.1774)
+}
+
 /// One frame of a batch: its centroids and, optionally, their magnitudes.
 pub type FrameRef<'a> = (&'a [[f64; 2]], Option<&'a [f64]>);
 
@@ -95,25 +109,11 @@ impl Solver {
     /// of unit σ. From at least [`NOISE_LEARN_MIN_FRAMES`] frames of at least
     /// [`NOISE_LEARN_MIN_MATCHES`] verified matches; `None` otherwise.
     pub(crate) fn learn_noise(&self, out: &[Identification], camera: &Camera) -> Option<f64> {
-        let mut d = Vec::new();
-        let mut frames = 0;
-        for id in out
-            .iter()
-            .filter(|id| id.is_identified() && id.verified && id.matched >= NOISE_LEARN_MIN_MATCHES)
-        {
-            let f = id.focal_length_px.unwrap_or(camera.focal_length_px);
-            let m = id.matched as f64;
-            let dof = (2.0 * m / (2.0 * m - 3.0)).sqrt();
-            d.extend(
-                id.residuals_rad
-                    .iter()
-                    .filter(|r| r.is_finite())
-                    .map(|r| r * f * dof),
-            );
-            frames += 1;
-        }
-        (frames >= NOISE_LEARN_MIN_FRAMES && !d.is_empty())
-            .then(|| stats::median_in_place(&mut d) / 1.1774)
+        agreed_noise(
+            out.iter()
+                .map(|id| id.noise_sample_px(id.focal_length_px.unwrap_or(camera.focal_length_px)))
+                .filter(|d| !d.is_empty()),
+        )
     }
 
     /// Identify many frames of one camera, in parallel when the `parallel` feature is on and

@@ -71,6 +71,7 @@ mod tolerance;
 mod verify;
 mod voting;
 
+pub(crate) use batch::agreed_noise;
 pub use batch::{map_frames, FrameRef};
 pub use cache::SolverCache;
 pub(crate) use cancel::stop_now;

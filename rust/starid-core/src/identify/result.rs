@@ -171,6 +171,38 @@ impl Identification {
         self.status == Status::Identified
     }
 
+    /// The frame's residuals in pixels (focal length `focal_px`), each scaled by
+    /// `sqrt(2m / (2m − 3))` for the attitude's three degrees of freedom among its `m` matches:
+    /// the sample a centroid noise is learned from. Empty unless the frame is a verified
+    /// solution of at least [`NOISE_LEARN_MIN_MATCHES`] matches.
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{simulate, Camera, IdentifyConfig, SimConfig, Solver};
+    /// let cat = std::sync::Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.5, 2).unwrap());
+    /// let cam = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    /// let solver = Solver::for_camera(cat.clone(), &cam).unwrap();
+    /// let f = simulate(&cat, &cam, &SimConfig { noise_px: 0.1, ..Default::default() }, 1).unwrap();
+    /// let id = solver.identify(&f.centroids, Some(&f.magnitudes), &cam, &IdentifyConfig::default()).unwrap();
+    /// let mut d = id.noise_sample_px(cam.focal_length_px);
+    /// assert!(d.len() >= 8);
+    /// d.sort_by(f64::total_cmp);
+    /// let sigma = d[d.len() / 2] / 1.1774; // a Rayleigh distribution's median is 1.1774 sigma
+    /// assert!((0.05..0.2).contains(&sigma));
+    /// ```
+    pub fn noise_sample_px(&self, focal_px: f64) -> Vec<f64> {
+        if !(self.is_identified() && self.verified && self.matched >= NOISE_LEARN_MIN_MATCHES) {
+            return Vec::new();
+        }
+        let m = self.matched as f64;
+        let dof = (2.0 * m / (2.0 * m - 3.0)).sqrt();
+        self.residuals_rad
+            .iter()
+            .filter(|r| r.is_finite())
+            .map(|r| r * focal_px * dof)
+            .collect()
+    }
+
     /// The frame's magnitude zero point measured from its matches: the median of the
     /// centroids' magnitudes less their catalogue stars', and the robust spread of those
     /// differences about it (1.4826 × their median absolute deviation). `None` with fewer than

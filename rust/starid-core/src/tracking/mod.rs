@@ -272,6 +272,12 @@ pub struct Tracker {
     /// the frames that follow are searched with the one they agree on, as a batch's are, where
     /// the configured `mag_offset` is `None` or disagrees. Kept across `reset`: it is the camera's.
     zero_points: std::collections::VecDeque<(f64, f64)>,
+    /// The residual samples ([`Identification::noise_sample_px`]) of the last solutions of
+    /// many matches, oldest first, at most [`NOISE_HISTORY`]: with
+    /// [`IdentifyConfig::learn_noise`] and no stated noise, a frame nothing identifies is
+    /// searched again with the noise they agree on, where it is tighter than the ladder's first
+    /// step (as a batch's failed frames are). Kept across `reset`: it is the camera's.
+    noises: std::collections::VecDeque<Vec<f64>>,
     /// Per catalogue magnitude bin ([`COMPLETENESS_BIN_MAG`]), the stars the solutions had well
     /// inside the sensor: how many were matched, and how many in all. Kept across `reset`: it
     /// is the camera's.
@@ -307,6 +313,9 @@ struct FoundCamera {
 
 /// Most zero points a [`Tracker`] keeps.
 const ZERO_POINT_HISTORY: usize = 16;
+
+/// Solutions whose residuals a tracker learns the centroid noise from (the last ones).
+const NOISE_HISTORY: usize = 8;
 
 impl Tracker {
     /// A tracker with no lock yet.
@@ -354,6 +363,7 @@ impl Tracker {
             held: Vec::new(),
             focal: None,
             zero_points: std::collections::VecDeque::new(),
+            noises: std::collections::VecDeque::new(),
             smear: std::collections::VecDeque::new(),
             completeness: vec![[0, 0]; COMPLETENESS_BINS],
         })
@@ -458,18 +468,53 @@ impl Tracker {
         } else {
             HintFallback::None
         };
-        let mut id = match (prediction, self.last) {
+        let search = |config: &IdentifyConfig| match (prediction, self.last) {
             (Some((r, u)), Some((_, _, mirrored))) => {
                 let hint = AttitudeHint {
                     r_icrs_to_cam: r,
                     uncertainty_rad: u.min(crate::identify::MAX_HINT_UNCERTAINTY_RAD),
                     mirrored: Some(mirrored),
                 };
-                solver.identify_hinted(centroids, magnitudes, camera, config, &hint, fallback)?
+                solver.identify_hinted(centroids, magnitudes, camera, config, &hint, fallback)
             }
-            _ => solver.identify(centroids, magnitudes, camera, config)?,
+            _ => solver.identify(centroids, magnitudes, camera, config),
         };
+        let mut id = search(config)?;
+        // Nothing identified: the noise the last solutions agree on, where tighter than the
+        // ladder's first step, searches the frame again (a tighter radius lets fewer stars pass).
+        let learned_noise = (config.learn_noise && config.centroid_sigma_px.is_none())
+            .then(|| crate::identify::agreed_noise(self.noises.iter().cloned()))
+            .flatten()
+            .filter(|&s| {
+                s > 0.0
+                    && s < crate::identify::NOISE_LEARN_BELOW_LADDER
+                        * crate::identify::SIGMA_LADDER_PX[0]
+            });
+        if let (false, Some(sigma)) = (id.is_identified(), learned_noise) {
+            let tight = IdentifyConfig {
+                centroid_sigma_px: Some(sigma),
+                noise_fallback: false,
+                ..config.clone()
+            };
+            let mut again = search(&tight)?;
+            again.elapsed += id.elapsed;
+            again.hypotheses += id.hypotheses;
+            if again.is_identified() {
+                again.learned_sigma_px = Some(sigma);
+                again.noise_source = crate::identify::NoiseSource::Learned;
+                id = again;
+            } else {
+                (id.elapsed, id.hypotheses) = (again.elapsed, again.hypotheses);
+            }
+        }
         if id.is_identified() {
+            let sample = id.noise_sample_px(camera.focal_length_px);
+            if self.identify.learn_noise && !sample.is_empty() {
+                self.noises.push_back(sample);
+                if self.noises.len() > NOISE_HISTORY {
+                    self.noises.pop_front();
+                }
+            }
             id.learned_mag_offset = learned.as_ref().and_then(|c| c.mag_offset);
             // (Measured only for learning: a median per frame on the tracking path.)
             let measured = magnitudes

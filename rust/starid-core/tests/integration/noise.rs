@@ -116,3 +116,43 @@ fn a_noise_stated_four_times_off_either_way_costs_ids_never_a_wrong_one() {
         assert!(sources.contains(&source), "stated {stated} px: {sources:?}");
     }
 }
+
+#[test]
+fn a_tracker_learns_the_noise_from_its_solutions() {
+    use starid_core::tracking::{Tracker, TrackerConfig};
+    let (solver, camera, scenes) = scenes(160, 0.1);
+    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let alone = IdentifyConfig {
+        learn_noise: false,
+        ..Default::default()
+    };
+    let mut learned = 0;
+    for (k, f) in scenes.iter().enumerate() {
+        // Frames an hour apart: each is found lost in space.
+        let step = tracker
+            .update(
+                &solver,
+                &f.centroids,
+                Some(&f.magnitudes),
+                &camera,
+                3600.0 * k as f64,
+            )
+            .unwrap();
+        let id = step.identification;
+        assert_eq!(
+            score(&id.catalog_index, &f.catalog_index).1,
+            0,
+            "a wrong id"
+        );
+        if let Some(s) = id.learned_sigma_px {
+            assert!((0.08..0.12).contains(&s), "learned {s} px, simulated 0.1");
+            assert_eq!(id.noise_source, NoiseSource::Learned);
+            let first = solver
+                .identify(&f.centroids, Some(&f.magnitudes), &camera, &alone)
+                .unwrap();
+            assert!(!first.is_identified());
+            learned += 1;
+        }
+    }
+    assert!(learned >= 1);
+}
