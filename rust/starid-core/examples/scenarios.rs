@@ -183,9 +183,26 @@ fn main() {
                 times.push(t);
                 if std::env::var("STARID_SEED").is_ok() {
                     println!(
-                        "  seed {fi}: {:?} hypotheses {} matched {} p {:e} time {:?}",
-                        r.status, r.hypotheses, r.matched, r.false_match_probability, r.elapsed
+                        "  seed {fi}: {:?} hypotheses {} matched {} p {:e} time {:?}, method {}, \
+                         focal {:?}, noise {} ({:.2} px)",
+                        r.status,
+                        r.hypotheses,
+                        r.matched,
+                        r.false_match_probability,
+                        r.elapsed,
+                        r.method.name(),
+                        r.focal_length_px,
+                        r.noise_source.as_str(),
+                        r.noise_step_px
                     );
+                    for (o, s) in r.catalog_index.iter().enumerate() {
+                        if let Some(s) = s {
+                            println!(
+                                "    offset {:.2}",
+                                f.magnitudes[o] - catalog.mag()[*s as usize]
+                            );
+                        }
+                    }
                 }
                 hyps.push(r.hypotheses);
                 if std::env::var("STARID_PER_FRAME").is_ok() {

@@ -202,6 +202,57 @@ impl Search<'_> {
             None
         }
     }
+
+    /// With magnitudes, unmatch centroids both far from their star and brighter than it: the
+    /// chance of a real star being as far out (Rayleigh tail at noise `sigma_rad`) and as
+    /// bright (a normal tail at the matches' robust magnitude spread, at least
+    /// [`JOINT_MIN_SPREAD_MAG`]), combined by Fisher's method, below [`JOINT_OUTLIER_TAIL`].
+    /// Each alone may be unremarkable (3σ); together they are a false spot on a faint star's
+    /// place. Returns how many.
+    pub(super) fn drop_joint_outliers(&mut self, sigma_rad: f64) -> usize {
+        let Some(mags) = self.magnitudes else {
+            return 0;
+        };
+        let cat_mag = self.solver.catalog.mag();
+        let s = &mut self.scratch;
+        let offsets = &mut s.mag_offsets;
+        offsets.clear();
+        offsets.extend(
+            s.matches
+                .iter()
+                .zip(mags)
+                .filter_map(|(m, &obs_mag)| m.map(|(star, _)| obs_mag - cat_mag[star as usize])),
+        );
+        if offsets.len() < super::MAG_CHECK_MIN_MATCHES {
+            return 0;
+        }
+        let offset = median_in_place(offsets);
+        for d in offsets.iter_mut() {
+            *d = (*d - offset).abs();
+        }
+        let spread = (1.4826 * median_in_place(offsets)).max(JOINT_MIN_SPREAD_MAG);
+        let mut dropped = 0;
+        for (m, &obs_mag) in s.matches.iter_mut().zip(mags) {
+            let Some((star, d)) = *m else { continue };
+            // Brighter than its star by z spreads, and z_pos noise out.
+            let z = (offset - (obs_mag - cat_mag[star as usize])) / spread;
+            let z_pos = d / sigma_rad;
+            if z <= 2.0 || z_pos <= 2.0 {
+                continue;
+            }
+            // ln of the two tails: Rayleigh exp(−z²/2), and the normal tail's Mills-ratio
+            // bound φ(z)/z (an upper bound: the test errs towards keeping).
+            let ln_pos = -0.5 * z_pos * z_pos;
+            let ln_mag = -0.5 * z * z - (z * (2.0 * PI).sqrt()).ln();
+            // Fisher: −2 Σ ln p is χ² with 4 degrees of freedom, whose tail at 2L is e^−L (1 + L).
+            let l = -(ln_pos + ln_mag);
+            if (-l).exp() * (1.0 + l) < JOINT_OUTLIER_TAIL {
+                *m = None;
+                dropped += 1;
+            }
+        }
+        dropped
+    }
 }
 
 /// A match whose residual exceeds this many times the noise of the others (under their own
@@ -220,3 +271,12 @@ pub(super) const NOISE_REFUSE_TAIL: f64 = 1e-3;
 
 /// Fewest matches whose residuals judge a stated noise too large.
 pub(super) const NOISE_MEASURE_MIN_MATCHES: usize = 6;
+
+/// Combined chance (Fisher's method over position and brightness) below which a match is a
+/// false spot on a star's place (see `Search::drop_joint_outliers`): a real star is lost once
+/// in 10⁴.
+pub(super) const JOINT_OUTLIER_TAIL: f64 = 1e-4;
+
+/// Least magnitude spread the joint test assumes: a few matches of nearly equal offsets must
+/// not make a 0.1 mag difference remarkable.
+pub(super) const JOINT_MIN_SPREAD_MAG: f64 = 0.1;

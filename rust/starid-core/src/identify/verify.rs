@@ -182,7 +182,7 @@ impl Search<'_> {
         } else {
             0
         };
-        let dropped = self.drop_too_bright() + unseen;
+        let dropped = self.drop_too_bright() + self.drop_joint_outliers(sigma) + unseen;
         if dropped > 0 {
             // Fewer matches: refit, and the bound below only grows.
             matched = self.collect_matched(obs);
@@ -212,11 +212,32 @@ impl Search<'_> {
         // large for a frame its tighter steps could not solve for want of stars).
         let (mut radius, mut sigma) = (radius, sigma);
         let stated = self.config.centroid_sigma_px.is_some();
-        // (Two spots left unmatched at least: fewer cannot refuse it. The default ladder's
-        // steps are not tested so: residuals that grow towards the edges there are a focal
-        // length or distortion that the focal check corrects, and the next step is looser.)
-        if stated && n >= matched + 2 && self.noise_too_small(&r, obs, (radius, sigma), matched) {
-            return None;
+        // (Two spots left unmatched at least: fewer cannot refuse it.) A step of the default
+        // ladder is not refused so: residuals that grow towards the edges there are often a
+        // focal length or distortion that the focal check corrects. Its matches are kept where
+        // the wider noise the extra spots show judges them alike (a double is told apart by
+        // the noise it is judged with), and the bound is taken again with those left.
+        if n >= matched + 2 && self.noise_too_small(&r, obs, (radius, sigma), matched) {
+            if stated {
+                return None;
+            }
+            let kept = self.scratch.matches.clone();
+            self.match_all(&r, obs, radius, REGROW_FACTOR * sigma);
+            for (m, k) in self.scratch.matches.iter_mut().zip(&kept) {
+                if m.map(|x| x.0) != k.map(|x| x.0) {
+                    *m = None;
+                } else {
+                    *m = *k;
+                }
+            }
+            matched = self.scratch.matches.iter().filter(|m| m.is_some()).count();
+            if matched < self.config.min_matches {
+                return None;
+            }
+            tail = self.match_tail(&r, n, matched, radius, true);
+            if self.hypotheses as f64 * tail > limit {
+                return None;
+            }
         }
         if stated || sigma_rad * f > SIGMA_LADDER_PX[0] {
             if let Some((r2, m2, radius2, sigma2)) =
