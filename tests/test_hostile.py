@@ -188,10 +188,11 @@ def test_time_limit_binds_one_long_unknown_field_call() -> None:
     spots = np.random.default_rng(5).uniform(0, 512, (100_000, 2))
     starid.identify(spots[:100], image_size=(512, 512), timeout_s=0.1)
     t0 = time.perf_counter()
-    res = starid.identify(spots, image_size=(512, 512), timeout_s=1.0)
-    # Checked between focal lengths, triangles and (in frames this large) every hypothesis;
-    # 10 s before. The precise bound is a benchmark's (benches/bench_interrupt.py).
-    assert res.status == "timeout" and time.perf_counter() - t0 < 2.0
+    res = starid.identify(spots, image_size=(512, 512), timeout_s=0.2)
+    # Checked between focal lengths, triangles, a triangle's catalogue pairs and (in frames this
+    # large) every hypothesis; the whole search takes about 1 s. The precise bound is a
+    # benchmark's (benches/bench_interrupt.py).
+    assert res.status == "timeout" and time.perf_counter() - t0 < 1.2
 
 
 def test_a_numpy_scalar_hint_is_one_hint_for_the_batch() -> None:

@@ -41,6 +41,9 @@ pub const MAX_FOCAL_HYPOTHESES: usize = 8;
 const PER_FOCAL_HYPOTHESES: usize = 3000;
 const PER_FOCAL_PAIRS: usize = 2_000_000;
 
+/// Catalogue pairs of one triangle between checks of the time limit and the cancel flag.
+const STOP_CHECK_PAIRS: usize = 1024;
+
 /// The noise ladder of a search with the focal length unknown (px).
 const UNKNOWN_FOCAL_SIGMA_LADDER_PX: [f64; 2] = [0.3, 1.0];
 
@@ -209,6 +212,7 @@ impl Solver {
             mirror_too: config.allow_mirrored,
             base_pairs: 0,
             tried: Vec::new(),
+            stop: (deadline, config.cancel.as_ref()),
         };
         let mut hypotheses_total = 0usize;
         let mut status = Status::NoMatch;
@@ -287,6 +291,7 @@ impl Solver {
                                     * search.tried.len() as f64)
                                     .min(1.0);
                                 id.elapsed = start.elapsed();
+                                id.noise_source = crate::identify::NoiseSource::of(config, &id);
                                 return Ok(FocalIdentification {
                                     identification: id,
                                     camera: Some(camera),
@@ -387,6 +392,9 @@ struct FocalSearch<'a> {
     mirror_too: bool,
     base_pairs: usize,
     tried: Vec<f64>,
+    /// When the search must stop (time limit, cancel flag): checked within a triangle too,
+    /// whose catalogue pairs may number hundreds of thousands at a long base.
+    stop: (Option<Instant>, Option<&'a crate::identify::Cancel>),
 }
 
 impl FocalSearch<'_> {
@@ -428,7 +436,11 @@ impl FocalSearch<'_> {
         self.base_pairs += range.len();
         let reach = (d(p, r) + d(q, r)) / base;
         let mut found = Vec::new();
-        for pair in index.pairs(range) {
+        for (k, pair) in index.pairs(range).enumerate() {
+            // (The search's loop reports the stop.)
+            if k % STOP_CHECK_PAIRS == STOP_CHECK_PAIRS - 1 && stop_now(self.stop.0, self.stop.1) {
+                break;
+            }
             // The index keeps no separations: the pair's own.
             let angle = crate::geometry::angle_between(
                 &vectors[pair[0] as usize],

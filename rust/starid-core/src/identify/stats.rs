@@ -110,7 +110,9 @@ pub(crate) fn binomial_tail(n: usize, m: usize, p: f64) -> f64 {
     for k in m..=n {
         sum += term;
         let next = term * (nf - k as f64) / (k as f64 + 1.0) * ratio;
-        if next < sum * 1e-17 && (nf - k as f64) / (k as f64 + 1.0) * ratio < 1.0 {
+        // (`<=`: a first term that underflowed to 0 ends the sum at once, not after n − m terms
+        // of nothing; past the mode the terms only shrink.)
+        if next <= sum * 1e-17 && (nf - k as f64) / (k as f64 + 1.0) * ratio < 1.0 {
             break;
         }
         term = next;
