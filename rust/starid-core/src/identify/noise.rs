@@ -114,8 +114,11 @@ impl Search<'_> {
                 break;
             };
             self.match_all(&r2, obs, radius, measured);
-            // Matching again may bring back a spot far brighter than its star.
-            self.drop_too_bright();
+            // Judging again only unnames: a spot the checks of the verification dropped stays
+            // dropped.
+            self.keep_only(&kept);
+            // The joint test again, at the noise measured.
+            self.drop_joint_outliers(measured);
             let m2 = self.scratch.matches.iter().filter(|m| m.is_some()).count();
             if m2 < self.config.min_matches {
                 break;
@@ -128,7 +131,8 @@ impl Search<'_> {
         } else if let Some((_, _, radius, measured)) = judged.filter(|j| j.2.is_finite()) {
             // The matches of the last attitude kept.
             self.match_all(&r, obs, radius, measured);
-            self.drop_too_bright();
+            self.keep_only(&kept);
+            self.drop_joint_outliers(measured);
             let m = self.scratch.matches.iter().filter(|m| m.is_some()).count();
             if m < self.config.min_matches {
                 self.scratch.matches = kept;
@@ -143,6 +147,16 @@ impl Search<'_> {
             self.scratch.matches = kept;
         }
         None
+    }
+
+    /// Unmatch every spot whose star is not the one it had in `before` (the residuals are the
+    /// new ones).
+    pub(super) fn keep_only(&mut self, before: &[Option<(u32, f64)>]) {
+        for (m, b) in self.scratch.matches.iter_mut().zip(before) {
+            if m.map(|x| x.0) != b.map(|x| x.0) {
+                *m = None;
+            }
+        }
     }
 
     /// Each match's residual under the attitude `r`.

@@ -223,13 +223,8 @@ impl Search<'_> {
             }
             let kept = self.scratch.matches.clone();
             self.match_all(&r, obs, radius, REGROW_FACTOR * sigma);
-            for (m, k) in self.scratch.matches.iter_mut().zip(&kept) {
-                if m.map(|x| x.0) != k.map(|x| x.0) {
-                    *m = None;
-                } else {
-                    *m = *k;
-                }
-            }
+            self.keep_only(&kept);
+            // (The residuals under the same attitude are the same.)
             matched = self.scratch.matches.iter().filter(|m| m.is_some()).count();
             if matched < self.config.min_matches {
                 return None;
