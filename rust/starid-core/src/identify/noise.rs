@@ -229,43 +229,60 @@ impl Search<'_> {
         };
         let cat_mag = self.solver.catalog.mag();
         let s = &mut self.scratch;
-        let offsets = &mut s.mag_offsets;
-        offsets.clear();
-        offsets.extend(
-            s.matches
-                .iter()
-                .zip(mags)
-                .filter_map(|(m, &obs_mag)| m.map(|(star, _)| obs_mag - cat_mag[star as usize])),
-        );
+        // Each match's spot and magnitude offset.
+        let offsets: Vec<(usize, f64)> = s
+            .matches
+            .iter()
+            .zip(mags)
+            .enumerate()
+            .filter_map(|(o, (m, &obs_mag))| {
+                m.map(|(star, _)| (o, obs_mag - cat_mag[star as usize]))
+            })
+            .collect();
         if offsets.len() < super::MAG_CHECK_MIN_MATCHES {
             return 0;
         }
-        let offset = median_in_place(offsets);
-        for d in offsets.iter_mut() {
-            *d = (*d - offset).abs();
-        }
-        let spread = (1.4826 * median_in_place(offsets)).max(JOINT_MIN_SPREAD_MAG);
-        let mut dropped = 0;
-        for (m, &obs_mag) in s.matches.iter_mut().zip(mags) {
-            let Some((star, d)) = *m else { continue };
-            // Brighter than its star by z spreads, and z_pos noise out.
-            let z = (offset - (obs_mag - cat_mag[star as usize])) / spread;
+        // The offsets' median and robust spread, less the one at `skip` (a test must not count
+        // the value it tests).
+        let mut buf = std::mem::take(&mut s.mag_offsets);
+        let mut centre = |skip: Option<usize>| -> (f64, f64) {
+            let d = &mut buf;
+            d.clear();
+            d.extend(offsets.iter().filter(|x| Some(x.0) != skip).map(|x| x.1));
+            let offset = median_in_place(d);
+            for x in d.iter_mut() {
+                *x = (*x - offset).abs();
+            }
+            let spread = (1.4826 * median_in_place(d)).max(JOINT_MIN_SPREAD_MAG);
+            (offset, spread)
+        };
+        let (offset, spread) = centre(None);
+        let mut drop = Vec::new();
+        for &(o, off) in &offsets {
+            let Some((_, d)) = s.matches[o] else { continue };
+            // Brighter than its star by z spreads (screened with all matches, judged without
+            // it), and z_pos noise out.
             let z_pos = d / sigma_rad;
-            if z <= 2.0 || z_pos <= 2.0 {
+            if (offset - off) / spread <= JOINT_SCREEN_SIGMAS || z_pos <= 1.0 {
                 continue;
             }
+            let (offset, spread) = centre(Some(o));
+            let z = (offset - off) / spread;
             // ln of the two tails: Rayleigh exp(−z²/2), and the normal tail's Mills-ratio
             // bound φ(z)/z (an upper bound: the test errs towards keeping).
             let ln_pos = -0.5 * z_pos * z_pos;
-            let ln_mag = -0.5 * z * z - (z * (2.0 * PI).sqrt()).ln();
+            let ln_mag = (-0.5 * z * z - (z * (2.0 * PI).sqrt()).ln()).min(0.0);
             // Fisher: −2 Σ ln p is χ² with 4 degrees of freedom, whose tail at 2L is e^−L (1 + L).
             let l = -(ln_pos + ln_mag);
             if (-l).exp() * (1.0 + l) < JOINT_OUTLIER_TAIL {
-                *m = None;
-                dropped += 1;
+                drop.push(o);
             }
         }
-        dropped
+        s.mag_offsets = buf;
+        for &o in &drop {
+            s.matches[o] = None;
+        }
+        drop.len()
     }
 }
 
@@ -290,6 +307,10 @@ pub(super) const NOISE_MEASURE_MIN_MATCHES: usize = 6;
 /// false spot on a star's place (see `Search::drop_joint_outliers`): a real star is lost once
 /// in 10⁴.
 pub(super) const JOINT_OUTLIER_TAIL: f64 = 1e-4;
+
+/// Spreads brighter than the frame's offset (all matches counted) from which a match is tested
+/// jointly (see `Search::drop_joint_outliers`).
+pub(super) const JOINT_SCREEN_SIGMAS: f64 = 1.5;
 
 /// Least magnitude spread the joint test assumes: a few matches of nearly equal offsets must
 /// not make a 0.1 mag difference remarkable.

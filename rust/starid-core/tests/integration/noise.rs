@@ -156,3 +156,70 @@ fn a_tracker_learns_the_noise_from_its_solutions() {
     }
     assert!(learned >= 1);
 }
+
+#[test]
+fn a_spot_both_off_its_star_and_far_brighter_than_it_is_not_named() {
+    // Stars to 5.5 imaged, 0.2 px noise, magnitudes with an unknown zero point: a false spot
+    // 3.2 sigma from a fainter catalogue star the camera does not see, 2.6 mag brighter than it,
+    // is neither remarkable in place nor (with 0.3 mag of scatter) quite in brightness alone.
+    let catalog = bundled();
+    let camera = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &camera).unwrap();
+    let config = IdentifyConfig {
+        mag_offset: None,
+        ..Default::default()
+    };
+    let mut planted = 0;
+    for seed in 0..40u64 {
+        let sim = starid_core::SimConfig {
+            mag_limit: Some(5.5),
+            noise_px: 0.2,
+            mag_noise: 0.3,
+            ..Default::default()
+        };
+        let mut f = simulate(&catalog, &camera, &sim, seed).unwrap();
+        let r = f.r_icrs_to_cam;
+        let boresight = r.inverse_transform_vector(&nalgebra::Vector3::z());
+        // A catalogue star fainter than the limit, well inside the sensor.
+        let Some((star, (x, y))) = catalog
+            .in_cone(&boresight, 0.4 * camera.fov_rad())
+            .into_iter()
+            .filter(|&s| catalog.mag()[s as usize] > 5.8)
+            .find_map(|s| {
+                let (mut x, y) = camera.cam_to_pixel(&(r * catalog.vectors()[s as usize]))?;
+                if f.mirrored {
+                    x = camera.width_px - x;
+                }
+                ((40.0..472.0).contains(&x) && (40.0..472.0).contains(&y)).then_some((s, (x, y)))
+            })
+        else {
+            continue;
+        };
+        f.centroids.push([x + 0.45, y + 0.45]);
+        f.magnitudes.push(catalog.mag()[star as usize] - 2.6);
+        f.catalog_index.push(None);
+        let id = solver
+            .identify(&f.centroids, Some(&f.magnitudes), &camera, &config)
+            .unwrap();
+        if id.is_identified() && id.matched >= 6 {
+            let offs: Vec<String> = id
+                .catalog_index
+                .iter()
+                .zip(&f.magnitudes)
+                .filter_map(|(c, m)| c.map(|c| format!("{:.2}", m - catalog.mag()[c as usize])))
+                .collect();
+            assert_eq!(
+                id.catalog_index.last().unwrap(),
+                &None,
+                "seed {seed}: sigma {} matched {} resid {} offsets {offs:?} noise {:?}",
+                id.centroid_sigma_px,
+                id.matched,
+                id.residuals_rad.last().unwrap() * camera.focal_length_px,
+                id.noise_source
+            );
+            assert_eq!(score(&id.catalog_index, &f.catalog_index).1, 0);
+            planted += 1;
+        }
+    }
+    assert!(planted >= 10, "{planted}");
+}
