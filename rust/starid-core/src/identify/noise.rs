@@ -118,7 +118,7 @@ impl Search<'_> {
             // dropped.
             self.keep_only(&kept);
             // The joint test again, at the noise measured.
-            self.drop_joint_outliers(measured);
+            self.drop_joint_outliers(&r2, obs, measured);
             let m2 = self.scratch.matches.iter().filter(|m| m.is_some()).count();
             if m2 < self.config.min_matches {
                 break;
@@ -132,7 +132,7 @@ impl Search<'_> {
             // The matches of the last attitude kept.
             self.match_all(&r, obs, radius, measured);
             self.keep_only(&kept);
-            self.drop_joint_outliers(measured);
+            self.drop_joint_outliers(&r, obs, measured);
             let m = self.scratch.matches.iter().filter(|m| m.is_some()).count();
             if m < self.config.min_matches {
                 self.scratch.matches = kept;
@@ -181,17 +181,38 @@ impl Search<'_> {
         r: &Rotation3<f64>,
         obs: &[Vector3<f64>],
     ) -> Option<Rotation3<f64>> {
-        let cat = self.solver.catalog.vectors();
-        let (k, star) = self
+        let k = self
             .scratch
             .matches
             .iter()
             .enumerate()
-            .filter_map(|(o, m)| m.map(|(star, d)| (o, star, d)))
-            .max_by(|a, b| a.2.total_cmp(&b.2))
-            .map(|(o, star, _)| (o, star))?;
+            .filter_map(|(o, m)| m.map(|(_, d)| (o, d)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))?
+            .0;
+        let (r2, far, noise) = self.without(k, r, obs)?;
+        (far > OUTLIER_SIGMAS * noise).then(|| {
+            self.scratch.matches[k] = None;
+            r2
+        })
+    }
+
+    /// Match `k` judged by the others: the attitude fitted to them, `k`'s residual under it, and
+    /// their noise (the smaller of their rms and their median-based estimate). The matches are
+    /// left as they were.
+    fn without(
+        &mut self,
+        k: usize,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+    ) -> Option<(Rotation3<f64>, f64, f64)> {
+        let cat = self.solver.catalog.vectors();
         let held = self.scratch.matches[k].take();
+        let star = held?.0;
         let m = self.collect_matched(obs);
+        self.scratch.matches[k] = held;
+        if m < 3 {
+            return None;
+        }
         let r2 = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, r)?;
         let s = &mut self.scratch;
         let d = &mut s.mag_offsets;
@@ -202,19 +223,14 @@ impl Search<'_> {
                 .zip(&s.ref_matched)
                 .map(|(o, c)| (o - r2 * c).norm()),
         );
-        let rms = (d.iter().map(|x| x * x).sum::<f64>() / (2 * m - 3) as f64).sqrt();
-        let dof = (2 * m) as f64 / (2 * m - 3) as f64;
+        let rms = (d.iter().map(|x| x * x).sum::<f64>() / (2 * m - 3).max(1) as f64).sqrt();
+        let dof = (2 * m) as f64 / (2 * m - 3).max(1) as f64;
         let noise = (median_in_place(d) / 1.1774 * dof.sqrt()).min(rms);
         let far = r2
             .inverse_transform_vector(&obs[k])
             .cross(&cat[star as usize])
             .norm();
-        if far > OUTLIER_SIGMAS * noise {
-            Some(r2)
-        } else {
-            self.scratch.matches[k] = held;
-            None
-        }
+        Some((r2, far, noise))
     }
 
     /// With magnitudes, unmatch centroids both far from their star and brighter than it: the
@@ -223,64 +239,88 @@ impl Search<'_> {
     /// [`JOINT_MIN_SPREAD_MAG`]), combined by Fisher's method, below [`JOINT_OUTLIER_TAIL`].
     /// Each alone may be unremarkable (3σ); together they are a false spot on a faint star's
     /// place. Returns how many.
-    pub(super) fn drop_joint_outliers(&mut self, sigma_rad: f64) -> usize {
+    pub(super) fn drop_joint_outliers(
+        &mut self,
+        r: &Rotation3<f64>,
+        obs: &[Vector3<f64>],
+        sigma_rad: f64,
+    ) -> usize {
         let Some(mags) = self.magnitudes else {
             return 0;
         };
-        let cat_mag = self.solver.catalog.mag();
-        let s = &mut self.scratch;
-        // Each match's spot and magnitude offset.
-        let offsets: Vec<(usize, f64)> = s
-            .matches
-            .iter()
-            .zip(mags)
-            .enumerate()
-            .filter_map(|(o, (m, &obs_mag))| {
-                m.map(|(star, _)| (o, obs_mag - cat_mag[star as usize]))
-            })
-            .collect();
-        if offsets.len() < super::MAG_CHECK_MIN_MATCHES {
+        // Most frames have no match far enough out to test: no magnitudes are looked at.
+        let screen = JOINT_SCREEN_POS_SIGMAS * sigma_rad;
+        if !self.scratch.matches.iter().flatten().any(|m| m.1 > screen) {
             return 0;
         }
-        // The offsets' median and robust spread, less the one at `skip` (a test must not count
+        let cat_mag = self.solver.catalog.mag();
+        // The offsets' median and robust spread, less the match at `skip` (a test must not count
         // the value it tests).
-        let mut buf = std::mem::take(&mut s.mag_offsets);
-        let mut centre = |skip: Option<usize>| -> (f64, f64) {
-            let d = &mut buf;
-            d.clear();
-            d.extend(offsets.iter().filter(|x| Some(x.0) != skip).map(|x| x.1));
-            let offset = median_in_place(d);
-            for x in d.iter_mut() {
-                *x = (*x - offset).abs();
-            }
-            let spread = (1.4826 * median_in_place(d)).max(JOINT_MIN_SPREAD_MAG);
-            (offset, spread)
+        let centre =
+            |s: &mut super::search::Scratch, skip: Option<usize>| -> Option<(f64, f64)> {
+                let d = &mut s.mag_offsets;
+                d.clear();
+                d.extend(s.matches.iter().zip(mags).enumerate().filter_map(
+                    |(o, (m, &obs_mag))| {
+                        m.filter(|_| Some(o) != skip)
+                            .map(|(star, _)| obs_mag - cat_mag[star as usize])
+                    },
+                ));
+                if d.len() < super::MAG_CHECK_MIN_MATCHES - usize::from(skip.is_some()) {
+                    return None;
+                }
+                let offset = median_in_place(d);
+                for x in d.iter_mut() {
+                    *x = (*x - offset).abs();
+                }
+                Some((
+                    offset,
+                    (1.4826 * median_in_place(d)).max(JOINT_MIN_SPREAD_MAG),
+                ))
+            };
+        let Some((offset, spread)) = centre(&mut self.scratch, None) else {
+            return 0;
         };
-        let (offset, spread) = centre(None);
+        let off = |o: usize, star: u32| mags[o] - cat_mag[star as usize];
+        // Screened with all matches (rare: no allocation otherwise).
+        let candidates: Vec<(usize, f64)> = self
+            .scratch
+            .matches
+            .iter()
+            .enumerate()
+            .filter_map(|(o, m)| m.map(|(star, d)| (o, star, d)))
+            .filter(|&(o, star, d)| {
+                d > screen && (offset - off(o, star)) / spread > JOINT_SCREEN_SIGMAS
+            })
+            .map(|(o, star, _)| (o, off(o, star)))
+            .collect();
         let mut drop = Vec::new();
-        for &(o, off) in &offsets {
-            let Some((_, d)) = s.matches[o] else { continue };
-            // Brighter than its star by z spreads (screened with all matches, judged without
-            // it), and z_pos noise out.
-            let z_pos = d / sigma_rad;
-            if (offset - off) / spread <= JOINT_SCREEN_SIGMAS || z_pos <= 1.0 {
+        for &(o, off) in &candidates {
+            // Brighter than its star by z spreads, and z_pos noise out: judged by the others
+            // (their offset and spread; their attitude and noise).
+            let Some((offset, spread)) = centre(&mut self.scratch, Some(o)) else {
+                continue;
+            };
+            let z = (offset - off) / spread;
+            let Some((_, far, noise)) = self.without(o, r, obs) else {
+                continue;
+            };
+            let z_pos = far / noise.max(1e-12);
+            if z <= 2.0 || z_pos <= 2.0 {
                 continue;
             }
-            let (offset, spread) = centre(Some(o));
-            let z = (offset - off) / spread;
             // ln of the two tails: Rayleigh exp(−z²/2), and the normal tail's Mills-ratio
             // bound φ(z)/z (an upper bound: the test errs towards keeping).
             let ln_pos = -0.5 * z_pos * z_pos;
-            let ln_mag = (-0.5 * z * z - (z * (2.0 * PI).sqrt()).ln()).min(0.0);
+            let ln_mag = -0.5 * z * z - (z * (2.0 * PI).sqrt()).ln();
             // Fisher: −2 Σ ln p is χ² with 4 degrees of freedom, whose tail at 2L is e^−L (1 + L).
             let l = -(ln_pos + ln_mag);
             if (-l).exp() * (1.0 + l) < JOINT_OUTLIER_TAIL {
                 drop.push(o);
             }
         }
-        s.mag_offsets = buf;
         for &o in &drop {
-            s.matches[o] = None;
+            self.scratch.matches[o] = None;
         }
         drop.len()
     }
@@ -311,6 +351,10 @@ pub(super) const JOINT_OUTLIER_TAIL: f64 = 1e-4;
 /// Spreads brighter than the frame's offset (all matches counted) from which a match is tested
 /// jointly (see `Search::drop_joint_outliers`).
 pub(super) const JOINT_SCREEN_SIGMAS: f64 = 1.5;
+
+/// Noise σ out (judged with all matches) from which a match is tested jointly: judged by the
+/// others, whose attitude it no longer pulls, it may lie further out.
+pub(super) const JOINT_SCREEN_POS_SIGMAS: f64 = 1.5;
 
 /// Least magnitude spread the joint test assumes: a few matches of nearly equal offsets must
 /// not make a 0.1 mag difference remarkable.

@@ -182,7 +182,7 @@ impl Search<'_> {
         } else {
             0
         };
-        let dropped = self.drop_too_bright() + self.drop_joint_outliers(sigma) + unseen;
+        let dropped = self.drop_too_bright() + self.drop_joint_outliers(&r, obs, sigma) + unseen;
         if dropped > 0 {
             // Fewer matches: refit, and the bound below only grows.
             matched = self.collect_matched(obs);
