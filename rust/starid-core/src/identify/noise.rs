@@ -61,9 +61,10 @@ impl Search<'_> {
     }
 
     /// Where the residuals of at least [`NOISE_MEASURE_MIN_MATCHES`] matches put the noise
-    /// below [`NOISE_REJUDGE_BELOW`] times the step's `sigma_rad`, the matches judged again at that noise (radius
-    /// [`MATCH_RADIUS_SIGMAS`] of it) and the attitude refitted: a radius wider than the noise
-    /// lets false spots near faint stars in. Returns the attitude, matches, radius and noise,
+    /// below [`NOISE_REJUDGE_BELOW`] times the step's `sigma_rad`, the matches judged again at
+    /// that noise (radius [`MATCH_RADIUS_SIGMAS`] of it) and the attitude refitted: a radius
+    /// wider than the noise lets false spots near faint stars in. Far outliers go first (see
+    /// `drop_far_outlier`). Returns the attitude, matches, radius and noise,
     /// or `None` where the noise fits (or the matches fall below `min_matches`, and the matches
     /// are left as they were).
     pub(super) fn rejudge_at_measured_noise(
@@ -85,6 +86,8 @@ impl Search<'_> {
             matched -= 1;
             judged = Some((r, matched, f64::NAN, f64::NAN));
         }
+        // What judging again may keep: the matches less the far outliers.
+        let base = self.scratch.matches.clone();
         // A false match far out pulls the attitude of a few stars and so the others' residuals:
         // measured again once it is gone, the noise comes out lower.
         for _ in 0..NOISE_REJUDGE_ROUNDS {
@@ -116,7 +119,7 @@ impl Search<'_> {
             self.match_all(&r2, obs, radius, measured);
             // Judging again only unnames: a spot the checks of the verification dropped stays
             // dropped.
-            self.keep_only(&kept);
+            self.keep_only(&base);
             // The joint test again, at the noise measured.
             self.drop_joint_outliers(&r2, obs, measured);
             let m2 = self.scratch.matches.iter().filter(|m| m.is_some()).count();
@@ -131,7 +134,7 @@ impl Search<'_> {
         } else if let Some((_, _, radius, measured)) = judged.filter(|j| j.2.is_finite()) {
             // The matches of the last attitude kept.
             self.match_all(&r, obs, radius, measured);
-            self.keep_only(&kept);
+            self.keep_only(&base);
             self.drop_joint_outliers(&r, obs, measured);
             let m = self.scratch.matches.iter().filter(|m| m.is_some()).count();
             if m < self.config.min_matches {
