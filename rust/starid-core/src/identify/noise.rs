@@ -9,7 +9,7 @@ use nalgebra::{Rotation3, Vector3};
 use super::near::{gate_allows, unambiguous_nearest};
 use super::stats::{binomial_tail, median_in_place};
 use super::verify::{LOOKUP_WORK, REGROW_FACTOR};
-use super::{Search, MATCH_RADIUS_SIGMAS};
+use super::{Search, CONFIRM_POOL, MATCH_RADIUS_SIGMAS};
 use crate::attitude::wahba_from;
 use crate::sky::Radius;
 
@@ -18,34 +18,34 @@ impl Search<'_> {
     /// [`REGROW_FACTOR`] times the radius under the same attitude, more spots find a star than
     /// chance coincidences explain (a Poisson tail below [`NOISE_REFUSE_TAIL`]; at least two).
     /// Under the right noise the radius holds all but a few in 10⁴ of the real stars, so the
-    /// spots that come in are stars the noise left out.
+    /// spots that come in are stars the noise left out. Among the brightest [`CONFIRM_POOL`]
+    /// spots.
     pub(super) fn noise_too_small(
         &mut self,
         r: &Rotation3<f64>,
         obs: &[Vector3<f64>],
         (radius, sigma): (f64, f64),
-        matched: usize,
     ) -> bool {
-        let n = obs.len();
         let catalog = &*self.solver.catalog;
         let wide = REGROW_FACTOR * radius;
         let within = Radius::new(wide);
-        let mut extra = 0;
-        for (o, v) in obs.iter().enumerate() {
+        // The stars already named, sorted, for look-ups; the brightest CONFIRM_POOL spots only,
+        // so that a frame of thousands of spots costs no more than one of a hundred.
+        let mut named: Vec<u32> = self.scratch.matches.iter().flatten().map(|m| m.0).collect();
+        named.sort_unstable();
+        let pool = &self.order[..self.order.len().min(CONFIRM_POOL)];
+        let (mut unmatched, mut extra) = (0, 0);
+        for &o in pool {
             if self.scratch.matches[o].is_some() {
                 continue;
             }
+            unmatched += 1;
             self.pairs_visited += LOOKUP_WORK;
-            let w = r.inverse_transform_vector(v);
+            let w = r.inverse_transform_vector(&obs[o]);
             if let Some((star, _)) = unambiguous_nearest(catalog, &w, within, REGROW_FACTOR * sigma)
             {
-                let claimed = self
-                    .scratch
-                    .matches
-                    .iter()
-                    .any(|m| m.is_some_and(|m| m.0 == star));
                 let allowed = gate_allows(self.gate, self.solver.mag_f32(), o, star);
-                extra += usize::from(!claimed && allowed);
+                extra += usize::from(named.binary_search(&star).is_err() && allowed);
             }
         }
         if extra < 2 {
@@ -57,7 +57,7 @@ impl Search<'_> {
             1.0
         };
         let p = (self.field_density(r, false) * PI * wide * wide * frac).min(1.0);
-        binomial_tail(n - matched, extra, p) < NOISE_REFUSE_TAIL
+        binomial_tail(unmatched, extra, p) < NOISE_REFUSE_TAIL
     }
 
     /// Where the residuals of at least [`NOISE_MEASURE_MIN_MATCHES`] matches put the noise
@@ -106,14 +106,8 @@ impl Search<'_> {
                 break;
             }
             let radius = MATCH_RADIUS_SIGMAS * measured + 1e-9;
-            let tight = self.match_all(&r, obs, radius, measured);
-            let Some(r2) = (tight >= 3)
-                .then(|| {
-                    self.collect_matched(obs);
-                    wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)
-                })
-                .flatten()
-            else {
+            self.match_all(&r, obs, radius, measured);
+            let Some(r2) = self.refit(obs, &r) else {
                 break;
             };
             self.match_all(&r2, obs, radius, measured);

@@ -133,7 +133,7 @@ impl Search<'_> {
         if (2 * matched < n && n >= REGROW_MIN_SPOTS) || sigma > 2.0 * sigma_rad {
             let mut rematch = true;
             for round in 0..2 {
-                let wide = self.match_all(&r, obs, REGROW_FACTOR * radius, REGROW_FACTOR * sigma);
+                self.match_all(&r, obs, REGROW_FACTOR * radius, REGROW_FACTOR * sigma);
                 // The wide pass names exactly the stars the fixed point's attitude was fitted to:
                 // the refit would return that attitude and match as it did, and the matches held
                 // now are the fixed point's own (same stars, same attitude, same distances).
@@ -142,13 +142,7 @@ impl Search<'_> {
                     rematch = false;
                     break;
                 }
-                let Some(r2) = (wide >= 3)
-                    .then(|| {
-                        self.collect_matched(obs);
-                        wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)
-                    })
-                    .flatten()
-                else {
+                let Some(r2) = self.refit(obs, &r) else {
                     break;
                 };
                 let m2 = self.match_all(&r2, obs, radius, sigma);
@@ -217,7 +211,7 @@ impl Search<'_> {
         // focal length or distortion that the focal check corrects. Its matches are kept where
         // the wider noise the extra spots show judges them alike (a double is told apart by
         // the noise it is judged with), and the bound is taken again with those left.
-        if n >= matched + 2 && self.noise_too_small(&r, obs, (radius, sigma), matched) {
+        if n >= matched + 2 && self.noise_too_small(&r, obs, (radius, sigma)) {
             if stated {
                 return None;
             }
@@ -449,6 +443,18 @@ impl Search<'_> {
             .iter()
             .map(|m| m.map(|(c, _)| c))
             .eq(s.fitted.iter().copied())
+    }
+
+    /// The attitude fitted to the current matches (from `r`), or `None` with fewer than three.
+    pub(super) fn refit(
+        &mut self,
+        obs: &[Vector3<f64>],
+        r: &Rotation3<f64>,
+    ) -> Option<Rotation3<f64>> {
+        if self.collect_matched(obs) < 3 {
+            return None;
+        }
+        wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, r)
     }
 
     /// Fill the matched vector lists from `scratch.matches`; returns their length.
