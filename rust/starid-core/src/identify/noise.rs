@@ -117,7 +117,7 @@ impl Search<'_> {
             // The joint test again, at the noise measured.
             self.drop_joint_outliers(&r2, obs, measured);
             let m2 = self.scratch.matches.iter().filter(|m| m.is_some()).count();
-            if m2 < self.config.min_matches {
+            if m2 < self.min_verified() {
                 break;
             }
             (r, matched, sigma) = (r2, m2, measured);
@@ -131,12 +131,12 @@ impl Search<'_> {
             self.keep_only(&base);
             self.drop_joint_outliers(&r, obs, measured);
             let m = self.scratch.matches.iter().filter(|m| m.is_some()).count();
-            if m < self.config.min_matches {
+            if m < self.min_verified() {
                 self.scratch.matches = kept;
                 return None;
             }
             return Some((r, m, radius, measured));
-        } else if matched >= self.config.min_matches {
+        } else if matched >= self.min_verified() {
             // Only far outliers dropped: the radius and noise stay as they were.
             self.refresh_residuals(&r, obs);
             return Some((r, matched, radius0, sigma0));
@@ -251,6 +251,27 @@ impl Search<'_> {
             return 0;
         }
         let cat_mag = self.solver.catalog.mag();
+        // Nor, in most of the rest, a match that far out and bright enough: a candidate's
+        // offset lies at least JOINT_SCREEN_SIGMAS spreads (never under JOINT_MIN_SPREAD_MAG)
+        // below the median, which needs more than half the offsets above the lowest
+        // candidate's by that much (one pass, no median).
+        let offsets = || {
+            self.scratch
+                .matches
+                .iter()
+                .zip(mags)
+                .filter_map(|(m, &obs_mag)| {
+                    m.map(|(star, d)| (obs_mag - cat_mag[star as usize], d))
+                })
+        };
+        let lowest = offsets()
+            .filter(|&(_, d)| d > screen)
+            .fold(f64::INFINITY, |lo, (x, _)| lo.min(x));
+        let bar = lowest + JOINT_SCREEN_SIGMAS * JOINT_MIN_SPREAD_MAG;
+        let (n, above) = offsets().fold((0, 0), |(n, a), (x, _)| (n + 1, a + usize::from(x > bar)));
+        if above < n - n / 2 {
+            return 0;
+        }
         // The offsets' median and robust spread, less the match at `skip` (a test must not count
         // the value it tests).
         let centre =
