@@ -212,6 +212,7 @@ impl Solver {
             mirror_too: config.allow_mirrored,
             base_pairs: 0,
             tried: Vec::new(),
+            closed: 0,
             stop: (deadline, config.cancel.as_ref()),
         };
         let mut hypotheses_total = 0usize;
@@ -286,10 +287,20 @@ impl Solver {
                                         camera = camera.with_k1(id.k1.unwrap_or(camera.k1))?;
                                     }
                                 }
+                                // The union bound over every hypothesis of the search: the
+                                // catalogue triangles closed at some focal length as well as
+                                // those of each focal length's identification (a focal length
+                                // chosen to fit a triangle makes its own identification's
+                                // count of one no bound at all).
+                                let tail = id.false_match_probability / id.hypotheses.max(1) as f64;
+                                let counted = (search.closed + hypotheses_total)
+                                    .max(search.tried.len())
+                                    .max(1);
                                 id.hypotheses = hypotheses_total;
-                                id.false_match_probability = (id.false_match_probability
-                                    * search.tried.len() as f64)
-                                    .min(1.0);
+                                id.false_match_probability = (tail * counted as f64).min(1.0);
+                                if id.false_match_probability > config.max_false_match_prob {
+                                    continue;
+                                }
                                 id.elapsed = start.elapsed();
                                 id.noise_source = crate::identify::NoiseSource::of(config, &id);
                                 return Ok(FocalIdentification {
@@ -392,6 +403,9 @@ struct FocalSearch<'a> {
     mirror_too: bool,
     base_pairs: usize,
     tried: Vec<f64>,
+    /// Catalogue triangles that closed on an observed one at some focal length and were looked
+    /// for a fourth star: the hypotheses of the scale search, which the bound counts.
+    closed: usize,
     /// When the search must stop (time limit, cancel flag): checked within a triangle too,
     /// whose catalogue pairs may number hundreds of thousands at a long base.
     stop: (Option<Instant>, Option<&'a crate::identify::Cancel>),
@@ -476,6 +490,7 @@ impl FocalSearch<'_> {
                     if cc == ca || cc == cb {
                         continue;
                     }
+                    self.closed += 1;
                     if let Some(f3) = self.confirm([p, q, r], [ca, cb, cc], f, mirrored, others) {
                         found.push(f3);
                     }

@@ -85,3 +85,33 @@ fn unknown_focal_rejects_bad_ranges() {
         .identify_unknown_focal(&xy, None, 512.0, 512.0, (f_wide, 3000.0), &cfg)
         .is_err());
 }
+
+#[test]
+fn a_focal_length_chosen_to_fit_a_triangle_counts_every_triangle_tried() {
+    // A field of view known to ±10 % and a handful of random points: the search within the
+    // tolerance picks a focal length that fits some catalogue triangle, and its identification
+    // there must not count that focal length as one hypothesis. These five points were once
+    // named five stars with a bound of 1.7e-6.
+    let catalog = bundled();
+    let camera = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let solver = Solver::for_camera(catalog, &camera).unwrap();
+    let config = IdentifyConfig::default();
+    let points = [
+        [0.0, 0.0],
+        [0.0, 363.0],
+        [18.0, 457.0],
+        [231.0, 470.0],
+        [305.0, 416.0],
+    ];
+    let id = solver.identify(&points, None, &camera, &config).unwrap();
+    assert!(!id.is_identified(), "P = {}", id.false_match_probability);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+    for _ in 0..60 {
+        let n = rng.random_range(4..=12);
+        let points: Vec<[f64; 2]> = (0..n)
+            .map(|_| [rng.random_range(0.0..512.0), rng.random_range(0.0..512.0)])
+            .collect();
+        let id = solver.identify(&points, None, &camera, &config).unwrap();
+        assert!(!id.is_identified(), "{points:?}");
+    }
+}
