@@ -72,7 +72,7 @@ def test_bad_options() -> None:
     with pytest.raises(ValueError, match="magnitude"):
         ident(GOOD, magnitudes=[1.0, 2.0, np.nan, 3.0])
     with pytest.raises(ValueError, match="min_matches"):
-        ident(GOOD, min_matches=3)
+        ident(GOOD, min_matches=2)
     with pytest.raises(ValueError, match="max_false_match_prob"):
         ident(GOOD, max_false_match_prob=0.0)
     with pytest.raises(ValueError, match="centroid_sigma_px"):

@@ -352,7 +352,9 @@ def identify(
         A solution is reported only if its bound on the probability of a false match is at
         most this.
     min_matches : int
-        Fewest identified stars in a reported solution (at least 4).
+        Fewest identified stars in a reported solution (at least 3, the default). Three stars
+        alone are named only where their triangle's sides and magnitudes pass the false-match
+        bound by themselves; 4 turns that off.
     max_search_stars : int
         Centroids (brightest first) used to form search triangles; all are verified.
     max_hypotheses : int

@@ -18,7 +18,10 @@
 //! (`centroid_sigma_px`; the default is the noise ladder) and `STARID_NOISE_PX` the true one (the
 //! family's 0.2 px otherwise), `STARID_BATCH` identifies each family's scenes as one batch (learning the zero point and the
 //! noise), `STARID_FOV_TOLERANCE` the field of
-//! view's tolerance (`fov_tolerance`; 0 holds the field as given).
+//! view's tolerance (`fov_tolerance`; 0 holds the field as given). `STARID_MOVE_SPOTS=K` moves
+//! every spot but K real stars to a random place (frames made to be unidentifiable: the
+//! identified share is the rate of false reports), and `STARID_MAX_FALSE` sets
+//! `max_false_match_prob`.
 //!
 //! `STARID_ROUNDS=R` times the scenes as the peer benchmark does instead: every scene simulated
 //! first, then R passes over all of them in turn, each scene's fastest call (a call then follows
@@ -65,6 +68,25 @@ fn scene(family: Family, catalog: &Catalog, seed: u64, realistic: bool) -> SimFr
         let shift: f64 = v.parse().expect("STARID_MAG_SHIFT");
         for m in &mut f.magnitudes {
             *m += shift;
+        }
+    }
+    if let Ok(v) = std::env::var("STARID_MOVE_SPOTS") {
+        // Every spot but the first `keep` real stars' moved to a random place (magnitudes
+        // kept): frames made to be unidentifiable, where any name beyond those stars is wrong.
+        let keep: usize = v.parse().expect("STARID_MOVE_SPOTS");
+        let camera = family.camera();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x30fe);
+        let mut kept = 0;
+        for (c, star) in f.centroids.iter_mut().zip(&mut f.catalog_index) {
+            if star.is_some() && kept < keep {
+                kept += 1;
+                continue;
+            }
+            *star = None;
+            *c = [
+                rng.random_range(0.0..camera.width_px),
+                rng.random_range(0.0..camera.height_px),
+            ];
         }
     }
     if realistic {
@@ -213,6 +235,9 @@ fn main() {
     }
     if let Ok(v) = std::env::var("STARID_FOV_TOLERANCE") {
         config.fov_tolerance = v.parse().expect("STARID_FOV_TOLERANCE");
+    }
+    if let Ok(v) = std::env::var("STARID_MAX_FALSE") {
+        config.max_false_match_prob = v.parse().expect("STARID_MAX_FALSE");
     }
     if let Ok(v) = std::env::var("STARID_MAG_TOL") {
         config.mag_tolerance = v.parse().expect("STARID_MAG_TOL");

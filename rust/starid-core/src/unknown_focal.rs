@@ -346,7 +346,7 @@ impl Solver {
         let mut hyps = 0;
         let mut last: Option<(Identification, PointingFit)> = None;
         for _round in 0..3 {
-            let id = self.identify(centroids, magnitudes, &camera, config)?;
+            let id = self.identify_found(centroids, magnitudes, &camera, config)?;
             hyps += id.hypotheses;
             let Some(r) = id.r_icrs_to_cam.filter(|_| id.is_identified()) else {
                 return Ok((last.map(|(id, fit)| (id, camera, fit)), hyps));

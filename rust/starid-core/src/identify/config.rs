@@ -11,7 +11,9 @@ pub struct IdentifyConfig {
     pub centroid_sigma_px: Option<f64>,
     /// Largest accepted bound on the probability that the solution is a false match.
     pub max_false_match_prob: f64,
-    /// Fewest matched stars of a reported solution (at least 4).
+    /// Fewest matched stars of a reported solution (at least 3). Three stars are named only by
+    /// the lone-triangle test, where the triangle's own sides and magnitudes pass the
+    /// false-match bound; a solution from the Pyramid's verification has at least 4.
     pub min_matches: usize,
     /// How many centroids (brightest first) form search triangles; all are verified.
     pub max_search_stars: usize,
@@ -205,7 +207,7 @@ impl Default for IdentifyConfig {
         Self {
             centroid_sigma_px: None,
             max_false_match_prob: 1e-3,
-            min_matches: 4,
+            min_matches: 3,
             max_search_stars: 24,
             max_hypotheses: 50_000,
             max_pairs_visited: 3_000_000,
@@ -313,9 +315,9 @@ impl IdentifyConfig {
                 "max_false_match_prob must be in (0, 1], got {p}"
             )));
         }
-        if self.min_matches < MIN_CENTROIDS {
+        if self.min_matches < LONE_MIN_MATCHES {
             return Err(Error::invalid_input(format!(
-                "min_matches must be at least {MIN_CENTROIDS}, got {}",
+                "min_matches must be at least {LONE_MIN_MATCHES}, got {}",
                 self.min_matches
             )));
         }

@@ -95,6 +95,16 @@ impl<'b> BrightnessPrefix<'b> {
     }
 }
 
+/// The catalogue magnitudes a spot of instrument magnitude `m` may match: `m − offset ± tolerance`
+/// (the zero point `offset` and its `tolerance`), as the search's `f32` window `[lo, hi]`.
+#[inline]
+pub(crate) fn magnitude_window(m: f64, offset: f64, tolerance: f64) -> [f32; 2] {
+    [
+        (m - offset - tolerance) as f32,
+        (m - offset + tolerance) as f32,
+    ]
+}
+
 /// A magnitude as an integer in the order of `f64::total_cmp`.
 #[inline]
 pub(super) fn magnitude_key(x: f64) -> i64 {

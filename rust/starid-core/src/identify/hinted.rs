@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    return_scratch, take_scratch, validate_centroids, BrightnessPrefix, Identification,
-    IdentifyConfig, Method, Search, Solver, Status,
+    magnitude_window, return_scratch, take_scratch, validate_centroids, BrightnessPrefix,
+    Identification, IdentifyConfig, Method, Search, Solver, Status,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
@@ -281,10 +281,7 @@ impl Solver {
                 config.mag_offset.unwrap_or(0.0),
                 config.mag_tolerance,
             );
-            windows.extend(
-                m.iter()
-                    .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32]),
-            );
+            windows.extend(m.iter().map(|&mi| magnitude_window(mi, off, tol)));
         }
         let windows: Option<&[[f32; 2]]> = gated.then_some(&windows[..]);
         // Tracking names frames of two or three stars when the bound allows.

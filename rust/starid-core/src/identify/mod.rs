@@ -53,10 +53,12 @@ mod batch;
 mod cache;
 mod cancel;
 mod config;
+mod empty;
 mod focal;
 mod frame;
 mod hinted;
 mod join;
+mod lone;
 mod magbins;
 mod near;
 mod noise;
@@ -224,8 +226,12 @@ pub const MAX_CENTROIDS: usize = 100_000;
 /// reads every centroid), smaller ones at every 64th.
 pub(crate) const LARGE_FRAME: usize = 1000;
 
-/// Fewest centroids a frame must have: a triangle and a confirming fourth star.
+/// Fewest centroids a frame must have for the Pyramid: a triangle and a confirming fourth star.
+/// (Fewer matches than this come only from the lone-triangle test.)
 pub const MIN_CENTROIDS: usize = 4;
+
+/// The least `min_matches`: a lone triangle (see the `lone` module).
+pub const LONE_MIN_MATCHES: usize = 3;
 
 /// Work budget (catalogue pairs) of the loosest step's bright pass when the gated passes
 /// (calibrated magnitudes) have spent the search's budget: that pass still runs, on this much.
@@ -387,7 +393,7 @@ mod tests {
                 ..Default::default()
             },
             IdentifyConfig {
-                min_matches: 3,
+                min_matches: 2,
                 ..Default::default()
             },
         ];

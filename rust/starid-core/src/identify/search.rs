@@ -148,6 +148,17 @@ impl<'a> Search<'a> {
         }
     }
 
+    /// Fewest matches of a solution the verification reports: `min_matches`, and never fewer
+    /// than a triangle and its fourth star (three stars alone are the lone-triangle test's).
+    pub(super) fn min_verified(&self) -> usize {
+        if self.hint.is_some() {
+            // Tracking names two or three stars where its prior makes the bound pass.
+            self.config.min_matches
+        } else {
+            self.config.min_matches.max(MIN_CENTROIDS)
+        }
+    }
+
     /// Whether the search's time is up or its caller cancelled it.
     pub(super) fn out_of_time(&self) -> bool {
         stop_now(self.deadline, self.config.cancel.as_ref())

@@ -24,6 +24,10 @@ pub struct Solver {
     pub(super) mag_pairs: std::sync::OnceLock<MagPairIndex>,
     /// The source documents' tables, built on first use.
     pub(super) seed_tables: std::sync::OnceLock<SeedTables>,
+    /// Stars per steradian around a catalogue pair (see [`Solver::pair_weighted_density`]).
+    pub(super) pair_density: std::sync::OnceLock<f64>,
+    /// How often a catalogue triangle has its field to itself, per camera (see `empty`).
+    pub(super) empty_fields: super::empty::EmptyFieldCache,
     pub(super) build_time: Duration,
 }
 
@@ -89,6 +93,8 @@ impl Solver {
             mag_sorted,
             mag_pairs: std::sync::OnceLock::new(),
             seed_tables: std::sync::OnceLock::new(),
+            pair_density: std::sync::OnceLock::new(),
+            empty_fields: Default::default(),
             build_time: t.elapsed(),
         })
     }
@@ -336,10 +342,40 @@ impl Solver {
         camera: &Camera,
         config: &IdentifyConfig,
     ) -> Result<Identification> {
+        self.identify_with(centroids, magnitudes, camera, config, true)
+    }
+
+    /// [`Solver::identify`] with a camera a search found rather than the one given: the
+    /// lone-triangle test (whose bound counts one camera) is not tried.
+    pub(crate) fn identify_found(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+    ) -> Result<Identification> {
+        self.identify_with(centroids, magnitudes, camera, config, false)
+    }
+
+    fn identify_with(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        lone: bool,
+    ) -> Result<Identification> {
         let start = Instant::now();
         config.validate()?;
         validate_centroids(centroids, magnitudes, camera)?;
         let mut id = self.search_frame(centroids, magnitudes, camera, config, start)?;
+        // Three stars among false spots: the triangle's own evidence, where its bound allows.
+        let searched = matches!(id.status, Status::NoMatch | Status::SearchLimit);
+        if lone && (searched || (id.status == Status::TooFewStars && centroids.len() == 3)) {
+            if let Some(found) = self.search_lone(centroids, magnitudes, camera, config, start) {
+                id = found;
+            }
+        }
         // A solution that names every spot leaves no star out by a focal error worth a search.
         if config.focal_check && id.verified && id.matched < centroids.len() {
             self.check_focal(centroids, magnitudes, camera, config, start, &mut id)?;
@@ -377,23 +413,7 @@ impl Solver {
             order,
             passes,
         } = &mut frame;
-        obs.clear();
-        obs.extend(
-            centroids
-                .iter()
-                .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
-        );
-        obs_mirrored.clear();
-        if camera.is_ideal() {
-            obs_mirrored.extend(obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)));
-        } else {
-            obs_mirrored.extend(
-                centroids
-                    .iter()
-                    .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
-            );
-        }
-        brightness_order_into(n, magnitudes, order);
+        prepare_frame(centroids, magnitudes, camera, (obs, obs_mirrored, order));
         let ladder = config.noise_ladder(&SIGMA_LADDER_PX);
         let gated = self.magnitudes_fit(magnitudes, config);
         self.passes(n, &ladder, magnitudes.is_some(), gated, config, passes);
@@ -402,11 +422,9 @@ impl Solver {
         // configured one.
         let windows = |tol: f64| -> Option<Vec<[f32; 2]>> {
             match (magnitudes, config.mag_offset) {
-                (Some(m), Some(off)) if gated => Some(
-                    m.iter()
-                        .map(|&mi| [(mi - off - tol) as f32, (mi - off + tol) as f32])
-                        .collect(),
-                ),
+                (Some(m), Some(off)) if gated => {
+                    Some(m.iter().map(|&mi| magnitude_window(mi, off, tol)).collect())
+                }
                 _ => None,
             }
         };
@@ -557,7 +575,7 @@ impl Solver {
                 let need = m.len() / 2 + 1;
                 m.iter()
                     .filter(|&&mi| {
-                        let (lo, hi) = ((mi - off - tol) as f32, (mi - off + tol) as f32);
+                        let [lo, hi] = magnitude_window(mi, off, tol);
                         sorted.first_at_least(lo).is_some_and(|x| x <= hi)
                     })
                     .take(need)
@@ -753,4 +771,35 @@ pub(crate) struct Pass {
     /// The loosest step's bright pass, which still runs when gated passes spent the budget
     /// (see [`CLOSING_LOOSE_PAIRS`]).
     pub(crate) closing: bool,
+}
+
+/// A frame's directions as seen and mirrored (x reversed), and its brightness order, into the
+/// buffers given (cleared first).
+pub(super) fn prepare_frame(
+    centroids: &[[f64; 2]],
+    magnitudes: Option<&[f64]>,
+    camera: &Camera,
+    (obs, obs_mirrored, order): (
+        &mut Vec<Vector3<f64>>,
+        &mut Vec<Vector3<f64>>,
+        &mut Vec<usize>,
+    ),
+) {
+    obs.clear();
+    obs.extend(
+        centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
+    );
+    obs_mirrored.clear();
+    if camera.is_ideal() {
+        obs_mirrored.extend(obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)));
+    } else {
+        obs_mirrored.extend(
+            centroids
+                .iter()
+                .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
+        );
+    }
+    brightness_order_into(centroids.len(), magnitudes, order);
 }

@@ -250,7 +250,7 @@ impl Solver {
             fov_tolerance: 0.0,
             ..config.clone()
         };
-        let again = self.identify(centroids, magnitudes, &cam, &held)?;
+        let again = self.identify_found(centroids, magnitudes, &cam, &held)?;
         if again.verified && again.matched > id.matched {
             let focal = again.focal_length_px.unwrap_or(cam.focal_length_px);
             let sigma = if again.focal_length_px.is_some() {

@@ -186,7 +186,7 @@ impl Search<'_> {
             r = wahba_from(&self.scratch.obs_matched, &self.scratch.ref_matched, &r)?;
             self.refresh_residuals(&r, obs);
         }
-        if matched < self.config.min_matches {
+        if matched < self.min_verified() {
             return None;
         }
         // The density map's value decides only where the answer does not hang on it: a bound
@@ -220,7 +220,7 @@ impl Search<'_> {
             self.keep_only(&kept);
             // (The residuals under the same attitude are the same.)
             matched = self.scratch.matches.iter().filter(|m| m.is_some()).count();
-            if matched < self.config.min_matches {
+            if matched < self.min_verified() {
                 return None;
             }
             tail = self.match_tail(&r, n, matched, radius, true);

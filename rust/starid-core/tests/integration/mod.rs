@@ -3,6 +3,7 @@ mod focal_check;
 mod geometry;
 mod identify;
 mod kvector;
+mod lone;
 mod noise;
 mod pointing;
 mod seeds;
