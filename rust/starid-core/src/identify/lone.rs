@@ -65,7 +65,7 @@ use crate::geometry::{angle_between, Camera};
 use crate::kvector::AngleWindow;
 
 /// Spots, brightest first, whose triples a lone-triangle search tries.
-pub const LONE_SEARCH_STARS: usize = 40;
+pub const LONE_SEARCH_STARS: usize = 56;
 
 /// Smallest sine of a triple's angles: a thin triangle fixes its third star along one line only.
 pub const LONE_MIN_SIN: f64 = 0.1;
