@@ -6,9 +6,27 @@
 //! Pixels: x right, y down, origin at the sensor's top-left corner; the principal point is
 //! the sensor centre `(W/2, H/2)`.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3, Vector4};
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
 
 use crate::error::{Error, Result};
+
+/// A uniformly distributed random rotation: a quaternion of four normal components, normalised
+/// (the sampling that the guide stars' and the pointing's Monte Carlo draws use, and the
+/// simulator's attitudes).
+///
+/// # Example
+/// ```
+/// use rand::SeedableRng;
+/// let r = starid_core::geometry::random_rotation(&mut rand::rngs::StdRng::seed_from_u64(1));
+/// assert!((r.matrix().determinant() - 1.0).abs() < 1e-12);
+/// ```
+pub fn random_rotation(rng: &mut impl Rng) -> Rotation3<f64> {
+    let v = Vector4::from_fn(|_, _| StandardNormal.sample(rng));
+    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(v));
+    q.to_rotation_matrix()
+}
 
 /// Unit vector of a direction given by right ascension and declination in radians.
 ///

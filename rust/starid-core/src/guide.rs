@@ -28,9 +28,9 @@ use rand::SeedableRng;
 
 use crate::catalog::Catalog;
 use crate::error::{Error, Result};
+use crate::geometry::random_rotation;
 use crate::geometry::{angle_between, unit_to_radec};
 use crate::kvector::PairIndex;
-use crate::simulate::random_rotation;
 
 /// Deepest supported QTM level (`8·4¹⁹` triangles, about 0.6″ across).
 pub const QTM_MAX_LEVEL: u32 = 20;

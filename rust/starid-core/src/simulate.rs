@@ -5,7 +5,7 @@
 //! uniformly over the sensor and shuffled, so that input order carries no information.
 //! Everything is driven by one seeded RNG: the same seed gives the same frame.
 
-use nalgebra::{Rotation3, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Rotation3, Vector3};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal, StandardNormal};
@@ -279,19 +279,8 @@ pub fn random_catalog(n_stars: usize, mag_lo: f64, mag_hi: f64, seed: u64) -> Re
     Catalog::new((1..=n_stars as i64).collect(), &ra, &dec, mag)
 }
 
-/// A uniformly distributed random rotation.
-///
-/// # Example
-/// ```
-/// use rand::SeedableRng;
-/// let r = starid_core::simulate::random_rotation(&mut rand::rngs::StdRng::seed_from_u64(1));
-/// assert!((r.matrix().determinant() - 1.0).abs() < 1e-12);
-/// ```
-pub fn random_rotation(rng: &mut impl Rng) -> Rotation3<f64> {
-    let v = Vector4::from_fn(|_, _| StandardNormal.sample(rng));
-    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(v));
-    q.to_rotation_matrix()
-}
+/// A uniformly distributed random rotation (see [`crate::geometry::random_rotation`]).
+pub use crate::geometry::random_rotation;
 
 /// Simulate one frame of `camera` over `catalog`, drawing randomness from `seed`.
 ///

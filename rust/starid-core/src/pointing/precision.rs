@@ -203,7 +203,7 @@ pub fn monte_carlo_distances(
     let predicted = predicted_distance_covariance(offsets_px, focal_px, sigma_px, fit_focal)?
         .ok_or_else(|| Error::invalid_input("the geometry does not determine the boresight"))?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let r = crate::simulate::random_rotation(&mut rng);
+    let r = crate::geometry::random_rotation(&mut rng);
     let stars: Vec<Vector3<f64>> = offsets_px
         .iter()
         .map(|o| r.inverse_transform_vector(&Vector3::new(o[0], o[1], focal_px).normalize()))
