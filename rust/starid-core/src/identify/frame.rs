@@ -42,6 +42,37 @@ pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order:
     order.extend(keyed.into_iter().map(|(_, i)| i));
 }
 
+/// A frame's directions as seen and mirrored (x reversed), and its brightness order, into the
+/// buffers given (cleared first).
+pub(crate) fn prepare_frame(
+    centroids: &[[f64; 2]],
+    magnitudes: Option<&[f64]>,
+    camera: &Camera,
+    (obs, obs_mirrored, order): (
+        &mut Vec<Vector3<f64>>,
+        &mut Vec<Vector3<f64>>,
+        &mut Vec<usize>,
+    ),
+) {
+    obs.clear();
+    obs.extend(
+        centroids
+            .iter()
+            .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
+    );
+    obs_mirrored.clear();
+    if camera.is_ideal() {
+        obs_mirrored.extend(obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)));
+    } else {
+        obs_mirrored.extend(
+            centroids
+                .iter()
+                .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
+        );
+    }
+    brightness_order_into(centroids.len(), magnitudes, order);
+}
+
 /// The first centroids of [`brightness_order_into`], found as they are asked for: a tracking search,
 /// which mostly verifies from its first pair of spots, needs only the brightest two. Frames of
 /// more than [`BRIGHTNESS_INSERTION_MAX`] spots are sorted whole at once.

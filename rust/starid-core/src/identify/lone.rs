@@ -53,9 +53,9 @@ use std::f64::consts::{PI, SQRT_2};
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::frame::{magnitude_window, return_scratch, take_scratch};
+use super::frame::{magnitude_window, prepare_frame, return_scratch, take_scratch};
 use super::search::FrameBuffers;
-use super::solver::prepare_frame;
+
 use super::{
     Identification, IdentifyConfig, Search, Solver, Verified, LONE_MIN_MATCHES,
     MATCH_RADIUS_SIGMAS, SIGMA_LADDER_PX,
