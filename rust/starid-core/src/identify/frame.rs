@@ -54,6 +54,18 @@ pub(crate) fn prepare_frame(
         &mut Vec<usize>,
     ),
 ) {
+    directions_into(centroids, camera, true, (obs, obs_mirrored));
+    brightness_order_into(centroids.len(), magnitudes, order);
+}
+
+/// The camera-frame directions of `centroids` into `obs`, and (where `mirrored_too`) those of the
+/// mirrored frame, x reversed, into `obs_mirrored` (left empty otherwise); both cleared first.
+pub(crate) fn directions_into(
+    centroids: &[[f64; 2]],
+    camera: &Camera,
+    mirrored_too: bool,
+    (obs, obs_mirrored): (&mut Vec<Vector3<f64>>, &mut Vec<Vector3<f64>>),
+) {
     obs.clear();
     obs.extend(
         centroids
@@ -61,6 +73,9 @@ pub(crate) fn prepare_frame(
             .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
     );
     obs_mirrored.clear();
+    if !mirrored_too {
+        return;
+    }
     if camera.is_ideal() {
         obs_mirrored.extend(obs.iter().map(|v| Vector3::new(-v.x, v.y, v.z)));
     } else {
@@ -70,7 +85,6 @@ pub(crate) fn prepare_frame(
                 .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
         );
     }
-    brightness_order_into(centroids.len(), magnitudes, order);
 }
 
 /// The first centroids of [`brightness_order_into`], found as they are asked for: a tracking search,

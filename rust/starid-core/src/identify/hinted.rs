@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use nalgebra::{Rotation3, Vector3};
 
 use super::{
-    magnitude_window, return_scratch, take_scratch, validate_centroids, BrightnessPrefix,
-    Identification, IdentifyConfig, Method, Search, Solver, Status,
+    directions_into, magnitude_window, return_scratch, take_scratch, validate_centroids,
+    BrightnessPrefix, Identification, IdentifyConfig, Method, Search, Solver, Status,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
@@ -246,21 +246,9 @@ impl Solver {
             ranges,
             order,
         } = &mut *bufs;
-        obs.clear();
-        obs.extend(
-            centroids
-                .iter()
-                .map(|c| camera.pixel_to_cam(c[0], c[1], false)),
-        );
         // The mirrored directions only when that handedness is searched.
-        obs_mirrored.clear();
-        if hint.mirrored != Some(false) {
-            obs_mirrored.extend(
-                centroids
-                    .iter()
-                    .map(|c| camera.pixel_to_cam(c[0], c[1], true)),
-            );
-        }
+        let mirrored_too = hint.mirrored != Some(false);
+        directions_into(centroids, camera, mirrored_too, (obs, obs_mirrored));
         let mut order = BrightnessPrefix::new(n, magnitudes, order);
         let handedness: &[bool] = match hint.mirrored {
             Some(false) => &[false],
