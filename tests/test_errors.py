@@ -121,6 +121,8 @@ def _has_hipparcos() -> bool:
         ({"max_hypotheses": 2**70}, "max_hypotheses"),
         ({"max_search_stars": 2.5}, "max_search_stars"),
         ({"min_matches": "four"}, "min_matches"),
+        ({"min_matches": True}, "min_matches.*bool"),
+        ({"max_search_stars": False}, "max_search_stars.*bool"),
         ({"mag_tolerance": float("nan")}, "mag_tolerance"),
         ({"mag_offset": float("inf")}, "mag_offset"),
     ],

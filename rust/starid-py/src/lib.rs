@@ -48,6 +48,12 @@ fn count(name: &str, value: Option<&Bound<'_, PyAny>>, default: usize) -> PyResu
     if v.is_none() {
         return Ok(default);
     }
+    // (A bool is an int to Python: `min_matches=True` would read as 1.)
+    if v.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(InvalidInputError::new_err(format!(
+            "{name} must be a whole number, not a bool ({v})"
+        )));
+    }
     let n: Option<i128> = v.extract::<i128>().ok().or_else(|| {
         v.extract::<f64>()
             .ok()
