@@ -134,13 +134,7 @@ impl Solver {
         });
         let sigma_px = config.noise_ladder(&SIGMA_LADDER_PX)[0];
         let stride = n.min(LONE_SEARCH_STARS);
-        let (cells, words) = (stride * stride, (stride * stride).div_ceil(64));
-        let ranges = &mut scratch.side_ranges;
-        if ranges.0.len() < cells {
-            ranges.0.resize(cells, [0; 2]);
-        }
-        ranges.1.clear();
-        ranges.1.resize(words, 0);
+        scratch.forget_side_ranges(stride);
         scratch.side_cache.reset(stride);
         let mut search = Search::new(
             self,

@@ -28,14 +28,7 @@ impl Search<'_> {
     ) -> std::result::Result<Option<Verified>, SearchLimit> {
         let mut angle = std::mem::take(&mut self.scratch.angles);
         let mut known = std::mem::take(&mut self.scratch.angle_known);
-        // The step's side ranges: its index and tolerance are fixed, so each pair's is found once.
-        let n = self.stride * self.stride;
-        let ranges = &mut self.scratch.side_ranges;
-        if ranges.0.len() < n {
-            ranges.0.resize(n, [0; 2]);
-        }
-        ranges.1.clear();
-        ranges.1.resize(n.div_ceil(64), 0);
+        self.scratch.forget_side_ranges(self.stride);
         let result = self.run_step(stars, sigma_px, cap, (&mut angle, &mut known));
         self.scratch.angles = angle;
         self.scratch.angle_known = known;

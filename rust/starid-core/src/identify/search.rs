@@ -56,6 +56,18 @@ pub(super) struct Scratch {
 }
 
 impl Scratch {
+    /// Room for each pair of `stride` search stars' range in the pair index, none found yet
+    /// (an ungated step's index and tolerance are fixed, so each pair's is found once).
+    pub(super) fn forget_side_ranges(&mut self, stride: usize) {
+        let n = stride * stride;
+        let ranges = &mut self.side_ranges;
+        if ranges.0.len() < n {
+            ranges.0.resize(n, [0; 2]);
+        }
+        ranges.1.clear();
+        ranges.1.resize(n.div_ceil(64), 0);
+    }
+
     /// Room for the angles of `stride` search stars, none of them known (the values left from
     /// an earlier frame are never read).
     pub(super) fn forget_angles(&mut self, stride: usize) {
