@@ -60,6 +60,26 @@ def test_dark_frame_and_clipped_background() -> None:
     assert len(starid.extract_centroids(clipped, dark=dark)) == 1
 
 
+def test_a_frame_whose_background_was_removed_is_identified(bundled: starid.Catalog) -> None:
+    # 8 bits, the sky subtracted and clipped at zero: half the pixels read 0, so that the
+    # median absolute deviation is 0; the noise is measured above the clipped pixels.
+    for seed in range(3):
+        img, truth = starid.simulate_image(
+            bundled, 12.0, (800, 600), seed=seed, background_e=400.0, read_noise_e=10.0, gain_e_per_dn=4.0,
+            bits=8, clip_background=True,
+        )
+        assert img.dtype == np.uint8 and (img == 0).mean() > 0.4
+        c = starid.extract_centroids(img)
+        assert c.noise_sigma == pytest.approx(np.hypot(np.hypot(20.0, 10.0) / 4.0, 12**-0.5), rel=0.2)
+        assert len(c) <= len(truth.xy) + 10
+        r = starid.identify(img, bundled, 12.0)
+        assert r.ok and r.n_matched >= 5, seed
+        for cid, (x, y) in zip(r.ids, c.xy):
+            if cid >= 0:
+                k = np.flatnonzero(truth.true_ids == cid)
+                assert len(k) == 1 and np.hypot(*(truth.xy[k[0]] - [x, y])) < 1.0
+
+
 def test_simulated_images_are_identified_end_to_end(bundled: starid.Catalog) -> None:
     for seed in range(5):
         img, truth = starid.simulate_image(

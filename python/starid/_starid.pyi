@@ -582,4 +582,5 @@ def simulate_image(
     full_well_e: float = 60000.0,
     gain_e_per_dn: float = 1.0,
     bits: int = 16,
+    clip_background: bool = False,
 ) -> tuple[npt.NDArray[np.float32], dict[str, Any]]: ...

@@ -221,7 +221,8 @@ def extract_centroids(
     ``dark`` (a dark or median frame) is subtracted and ``flat`` divided out (normalised to
     its median) before extraction; non-finite pixels (a clipped or masked background) take the
     image's median. Background: block medians of ``background_block`` pixels, interpolated;
-    detection ``threshold_sigma`` noise σ above it; hot pixels cleaned first. With ``deblend``, a
+    detection ``threshold_sigma`` noise σ above it (σ from the quartiles, or from the pixels
+    above a background clipped at zero, as frames whose pipeline removed it have it); hot pixels cleaned first. With ``deblend``, a
     spot with two or three distinct peaks (a close double) is split into one spot per peak,
     flagged ``deblended``.
 
@@ -338,12 +339,15 @@ def simulate_image(
     full_well_e: float = 60000.0,
     gain_e_per_dn: float = 1.0,
     bits: int = 16,
+    clip_background: bool = False,
 ) -> tuple[npt.NDArray[Any], Frame]:
     """A simulated frame rendered to pixels, with its truth: pixel-integrated Gaussian PSFs
     (``psf_sigma_px``), a star of magnitude 0 giving ``zero_point_e`` electrons, sky
     ``background_e`` with a left-to-right ``gradient_e``, hot pixels, a satellite ``trail``
     ``(x0, y0, x1, y1, electrons per pixel)``, Poisson and read noise, saturation at
-    ``full_well_e``, ``bits``-bit quantisation with ``gain_e_per_dn``.
+    ``full_well_e``, ``bits``-bit quantisation with ``gain_e_per_dn``. With
+    ``clip_background``, the sky is subtracted before quantisation and what falls below it
+    reads 0, as in frames whose pipeline removed the background.
 
     The image holds the digital numbers a sensor gives: uint16 for 16 bits, uint8 for 8, so
     that Pillow or astropy save it as it is (``PIL.Image.fromarray(img).save("frame.png")``
@@ -357,7 +361,7 @@ def simulate_image(
         _whole("false_stars", false_stars),
         float(psf_sigma_px), float(zero_point_e), float(background_e), float(gradient_e), float(read_noise_e),
         _whole("hot_pixels", hot_pixels), float(hot_pixel_e), tr, float(full_well_e), float(gain_e_per_dn),
-        _whole("bits", bits, 64),
+        _whole("bits", bits, 64), _flag("clip_background", clip_background),
     )
     w, h = cam.image_size
     frame: Frame = _frame(d, cam.fov_deg, (w, h), seed)

@@ -171,32 +171,132 @@ impl Background {
         thr[if t < 0.5 { y0 } else { y1 }][i]
     }
 
-    /// 1.4826 × the median absolute deviation of the image less its background, over a grid
-    /// of about 16 384 pixels (odd steps, so that no pattern of the sensor's lines aliases).
+    /// The noise σ of the image less its background, over a grid of about 16 384 pixels (odd
+    /// steps, so that no pattern of the sensor's lines aliases), from its quantiles
+    /// ([`spread_sigma`]; the share of samples at the image's lowest value tells whether the
+    /// background was clipped).
     pub(super) fn robust_sigma<T: Pixel>(&self, img: &[T], width: usize, height: usize) -> f64 {
         let step = (((width * height) as f64 / 16_384.0).sqrt() as usize).max(1) | 1;
         let mut s: Vec<f32> = Vec::with_capacity((width / step + 1) * (height / step + 1));
+        let (mut lowest, mut at_lowest) = (f32::INFINITY, 0usize);
         for j in (step / 2..height).step_by(step) {
             let (y0, y1, ty) = interp(&self.cy, j as f64 + 0.5);
             let (a, b, t) = (&self.rows[y0], &self.rows[y1], ty as f32);
             for i in (step / 2..width).step_by(step) {
-                let x = img[j * width + i].to_f32() - (a[i] + (b[i] - a[i]) * t);
+                let raw = img[j * width + i].to_f32();
+                if raw < lowest {
+                    (lowest, at_lowest) = (raw, 1);
+                } else if raw == lowest {
+                    at_lowest += 1;
+                }
+                let x = raw - (a[i] + (b[i] - a[i]) * t);
                 if x.is_finite() {
                     s.push(x);
                 }
             }
         }
-        let m = median(&mut s);
-        for v in &mut s {
-            *v = (*v - m).abs();
+        if s.is_empty() {
+            return 0.0;
         }
-        1.4826 * f64::from(median(&mut s))
+        let clipped = at_lowest as f64 / s.len() as f64;
+        spread_sigma(&mut s, clipped)
     }
 
     /// The median of the block medians.
     pub(super) fn level(&self) -> f64 {
         let mut g = self.grid.clone();
         f64::from(median(&mut g))
+    }
+}
+
+/// Share of the sampled pixels at the image's lowest value from which the background counts
+/// as clipped. An unclipped background's lowest value is a lone tail sample: a few in ten
+/// thousand hold it, or a few in a hundred where coarse quantisation piles the tail onto one
+/// level (and there the upper quantiles measure the same σ).
+pub(super) const CLIPPED_SHARE: f64 = 0.08;
+
+/// The σ of samples `s` (reordered) of a Gaussian, from two of their quantiles: the quartiles
+/// (σ = IQR / 1.349, robust to the stars among them) or, where the background was clipped
+/// (`clipped`, the share of samples at the lowest value, at least [`CLIPPED_SHARE`]: frames
+/// whose background was subtracted and cut at zero), two quantiles above the clipped ones:
+/// the median and the third quartile where less than half is clipped (a distribution clipped
+/// below its median keeps it), higher ones where more is. Quantiles are read between the
+/// midpoints of distinct values ([`tied_quantile`]), so that quantised pixels do not round
+/// the spread to whole levels: a noise of a third of a level still measures about that,
+/// where the median absolute deviation reads 0.
+pub(super) fn spread_sigma(s: &mut [f32], clipped: f64) -> f64 {
+    s.sort_unstable_by(f32::total_cmp);
+    let (pa, pb) = if clipped >= CLIPPED_SHARE {
+        let pa = (clipped + 0.1).clamp(0.5, 0.9);
+        (pa, 0.5 * (pa + 1.0))
+    } else {
+        (0.25, 0.75)
+    };
+    let spread = tied_quantile(s, pb) - tied_quantile(s, pa);
+    (spread / (normal_quantile(pb) - normal_quantile(pa))).max(0.0)
+}
+
+/// The `p` quantile of sorted samples, values spread evenly between the midpoints to their
+/// distinct neighbours: a run of `n` equal quantised values stands for a level's whole width.
+pub(super) fn tied_quantile(sorted: &[f32], p: f64) -> f64 {
+    let n = sorted.len();
+    let rank = (p * n as f64).clamp(0.0, n as f64);
+    let k = (rank as usize).min(n - 1);
+    let v = sorted[k];
+    let lo = sorted.partition_point(|&x| x < v);
+    let hi = sorted.partition_point(|&x| x <= v);
+    let below = if lo > 0 { sorted[lo - 1] } else { v };
+    let above = if hi < n { sorted[hi] } else { v };
+    let (edge_lo, edge_hi) = (0.5 * f64::from(below + v), 0.5 * f64::from(v + above));
+    let t = ((rank - lo as f64) / (hi - lo) as f64).clamp(0.0, 1.0);
+    edge_lo + t * (edge_hi - edge_lo)
+}
+
+/// The standard normal quantile Φ⁻¹(p) for p in (0, 1): Acklam's rational approximation
+/// (relative error below 1.2·10⁻⁹).
+pub(super) fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969_683_028_665_376e1,
+        2.209_460_984_245_205e2,
+        -2.759_285_104_469_687e2,
+        1.383_577_518_672_69e2,
+        -3.066_479_806_614_716e1,
+        2.506_628_277_459_239,
+    ];
+    const B: [f64; 5] = [
+        -5.447_609_879_822_406e1,
+        1.615_858_368_580_409e2,
+        -1.556_989_798_598_866e2,
+        6.680_131_188_771_972e1,
+        -1.328_068_155_288_572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784_894_002_430_293e-3,
+        -3.223_964_580_411_365e-1,
+        -2.400_758_277_161_838,
+        -2.549_732_539_343_734,
+        4.374_664_141_464_968,
+        2.938_163_982_698_783,
+    ];
+    const D: [f64; 4] = [
+        7.784_695_709_041_462e-3,
+        3.224_671_290_700_398e-1,
+        2.445_134_137_142_996,
+        3.754_408_661_907_416,
+    ];
+    let tail = |q: f64| {
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    if p < 0.024_25 {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - 0.024_25 {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
     }
 }
 

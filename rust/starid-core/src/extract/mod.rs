@@ -2,8 +2,10 @@
 //!
 //! 1. Background: the median of each block of `background_block` × `background_block` pixels
 //!    (a sixteenth of them sampled), interpolated bilinearly between block centres (copes with
-//!    gradients, vignetting and moonlight). Noise: the robust σ (1.4826 × MAD) of the image
-//!    less its background over a sparse grid of pixels, and a local σ per block (interquartile
+//!    gradients, vignetting and moonlight). Noise: the robust σ of the image less its background
+//!    over a sparse grid of pixels, from its quartiles read between quantisation levels (from
+//!    two quantiles above the clipped pixels where the background was clipped at zero), and a
+//!    local σ per block (interquartile
 //!    range, then the median over the block and its neighbours), which raises the threshold
 //!    where a bright background brings more shot noise (it never lowers it).
 //! 2. One pass over the pixels, in parallel bands of rows for large images: the image less

@@ -33,6 +33,10 @@ pub struct RenderConfig {
     pub gain_e_per_dn: f64,
     /// Bits of the converter: 8 or 16 (values clip at 2^bits − 1).
     pub bits: u32,
+    /// The sky level (background and gradient, in digital numbers) subtracted before
+    /// quantisation, values below it clipped at zero: a frame whose pipeline removed its
+    /// background, where about half the pixels read exactly 0.
+    pub clip_background: bool,
 }
 
 impl Default for RenderConfig {
@@ -49,6 +53,7 @@ impl Default for RenderConfig {
             full_well_e: 60_000.0,
             gain_e_per_dn: 1.0,
             bits: 16,
+            clip_background: false,
         }
     }
 }
@@ -93,7 +98,7 @@ fn clip_segment([x0, y0, x1, y1]: [f64; 4], w: f64, h: f64) -> Option<[f64; 4]> 
 /// Render a simulated frame's spots (real and false, at their magnitudes) as a pixel image of
 /// the camera's size, row-major digital numbers: pixel-integrated Gaussian PSFs, sky with a
 /// gradient, hot pixels, an optional trail, Poisson shot noise, read noise, saturation and
-/// quantisation. Hot pixels and the trail are not spots of the frame: they are what an
+/// quantisation (with `clip_background`, of the image less its sky). Hot pixels and the trail are not spots of the frame: they are what an
 /// extractor must not report.
 ///
 /// # Errors
@@ -184,8 +189,17 @@ pub fn render(
     }
     let read = Normal::new(0.0, c.read_noise_e.max(1e-12)).expect("finite read noise");
     let max_dn = f64::from((1u32 << c.bits) - 1);
+    let sky = |k: usize| {
+        if c.clip_background {
+            let gx = ((k % w) as f64 + 0.5) / w as f64 - 0.5;
+            (c.background_e + c.gradient_e * gx).max(0.0) / c.gain_e_per_dn
+        } else {
+            0.0
+        }
+    };
     Ok(e.into_iter()
-        .map(|mean| {
+        .enumerate()
+        .map(|(k, mean)| {
             // Poisson shot noise (Gaussian beyond 1000 electrons, where it is one).
             let n = if mean < 1000.0 {
                 rand_distr::Poisson::new(mean.max(1e-9)).map_or(mean, |d| d.sample(&mut rng))
@@ -194,7 +208,7 @@ pub fn render(
                 mean + mean.sqrt() * z
             };
             let v = (n.min(c.full_well_e) + read.sample(&mut rng)) / c.gain_e_per_dn;
-            v.round().clamp(0.0, max_dn) as f32
+            (v - sky(k)).round().clamp(0.0, max_dn) as f32
         })
         .collect())
 }

@@ -1,4 +1,5 @@
 mod calibrate;
+mod extract;
 mod focal_check;
 mod geometry;
 mod identify;
