@@ -333,7 +333,7 @@ impl Solver {
     /// Identify with focal length `f`; on success refine `f` over all matches and identify again
     /// with the refined camera. Returns the identification, the camera, the fit and the
     /// hypotheses spent.
-    fn finish(
+    pub(crate) fn finish(
         &self,
         centroids: &[[f64; 2]],
         magnitudes: Option<&[f64]>,

@@ -8,6 +8,25 @@ use super::*;
 /// given off (below the focal check's own threshold, which acts on it).
 const SCALE_HINT_SIGMAS: f64 = 3.0;
 
+/// Focal lengths of the grid searched about the given one ([`Solver::search_scale_grid`]):
+/// ±10 % on a 512-pixel sensor, ±4 % on a 1400-pixel one.
+const SCALE_GRID_STEPS: usize = 48;
+
+/// The grid's half step: how far (pixels) a focal-length error may move a star at the half
+/// diagonal for the fixed-focal search to find the frame all the same (its first noise step
+/// takes in a side about that much off).
+const SCALE_GRID_EDGE_PX: f64 = 0.75;
+
+/// Catalogue pairs each focal length of the grid may visit: the brightest spots' passes, so
+/// that a frame with nothing to find spends about a millisecond a focal length.
+const SCALE_GRID_PAIRS: usize = 20_000;
+
+/// Fewest spots a solution of the grid names. The union bound over the grid holds for spots
+/// that fall at random; a handful of spots shaped like a catalogue pattern at some scale is
+/// what a search over scales finds (five random points were once named five stars at a focal
+/// length of the grid), so the grid asks for more stars than a known field does.
+const SCALE_GRID_MIN_MATCHES: usize = 6;
+
 /// How far (radians) the roll of a solution matched at the centre only may be off, for the
 /// scale scan of [`Solver::field_in_doubt`].
 const ROLL_SLACK_RAD: f64 = 5e-3;
@@ -225,6 +244,14 @@ impl Solver {
             &narrow,
             false,
         )?;
+        let mut found = found;
+        if !found.identification.verified {
+            if let Some(grid) =
+                self.search_scale_grid(centroids, magnitudes, camera, config, &found)?
+            {
+                found = grid;
+            }
+        }
         let f = &found.identification;
         // More spots named, or nearly as many with residuals far tighter (a match radius widened
         // for a scale error takes in a spot or two more by chance).
@@ -265,5 +292,90 @@ impl Solver {
         }
         id.hypotheses += hypotheses;
         Ok(())
+    }
+
+    /// The frame searched with the camera as given at the focal lengths of a grid about it,
+    /// nearest first: steps that move a star at the half diagonal by `2 SCALE_GRID_EDGE_PX`,
+    /// within the tolerance, at most [`SCALE_GRID_STEPS`] of them, each with a small budget
+    /// ([`SCALE_GRID_PAIRS`]). The search over the range finds a focal length from triangles
+    /// of the brightest spots and fails where those are half false; the fixed-focal search
+    /// absorbs a scale error of a pixel or so at the edge and finds stars among false spots.
+    /// Each solution's false-match bound is multiplied by the number of focal lengths in the
+    /// grid (a union bound over them); `before` is the search over the range, whose work the
+    /// result adds to.
+    fn search_scale_grid(
+        &self,
+        centroids: &[[f64; 2]],
+        magnitudes: Option<&[f64]>,
+        camera: &Camera,
+        config: &IdentifyConfig,
+        before: &crate::unknown_focal::FocalIdentification,
+    ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
+        let (shortest, longest) = config.focal_range_px(camera);
+        let f0 = camera.focal_length_px;
+        let half_diagonal = 0.5 * camera.width_px.hypot(camera.height_px);
+        let step = 2.0 * SCALE_GRID_EDGE_PX / half_diagonal;
+        let grid: Vec<f64> = (1..=SCALE_GRID_STEPS / 2)
+            .flat_map(|k| [1.0 + k as f64 * step, 1.0 - k as f64 * step])
+            .map(|s| f0 * s)
+            .filter(|f| (shortest..=longest).contains(f))
+            .collect();
+        // The given focal length was tried already: it counts among the grid's.
+        let scales = (grid.len() + 1) as f64;
+        let each = IdentifyConfig {
+            fov_tolerance: 0.0,
+            max_pairs_visited: config.max_pairs_visited.min(SCALE_GRID_PAIRS),
+            max_false_match_prob: config.max_false_match_prob / scales,
+            // The focal length is refined over the matches instead.
+            focal_check: false,
+            ..config.clone()
+        };
+        let mut hypotheses = before.identification.hypotheses;
+        for f in grid {
+            if config.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+                break;
+            }
+            // Identified at the grid's focal length, chosen before the frame was seen: its bound
+            // is the one that counts (a focal length refined over the matches fits them, and
+            // its identification's bound would count the fit as evidence).
+            let mut cam = *camera;
+            cam.focal_length_px = f;
+            let first = self.identify_found(centroids, magnitudes, &cam, &each)?;
+            hypotheses += first.hypotheses;
+            let bound = first.false_match_probability * scales;
+            if !first.verified
+                || first.matched < SCALE_GRID_MIN_MATCHES
+                || bound > config.max_false_match_prob
+            {
+                continue;
+            }
+            // Then with the focal length refined over the stars matched, until it settles (the
+            // grid's may lie a step off the truth).
+            let (done, hyps) = self.finish(
+                centroids,
+                magnitudes,
+                camera.width_px,
+                camera.height_px,
+                f,
+                &each,
+            )?;
+            hypotheses += hyps;
+            let Some((mut id, cam, fit)) = done else {
+                continue;
+            };
+            id.false_match_probability = (id.false_match_probability * scales).max(bound).min(1.0);
+            if !id.verified || id.false_match_probability > config.max_false_match_prob {
+                continue;
+            }
+            id.hypotheses = hypotheses;
+            return Ok(Some(crate::unknown_focal::FocalIdentification {
+                identification: id,
+                camera: Some(cam),
+                fit: Some(fit),
+                focal_hypotheses: before.focal_hypotheses,
+                base_pairs: before.base_pairs,
+            }));
+        }
+        Ok(None)
     }
 }

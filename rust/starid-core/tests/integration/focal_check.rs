@@ -214,3 +214,60 @@ fn a_field_of_view_within_its_tolerance_identifies_and_one_beyond_it_is_never_wr
     assert_eq!(wrong, 0);
     assert!(identified * 4 < frames.len(), "{identified}");
 }
+
+#[test]
+fn a_field_given_off_is_found_among_noise_peaks() {
+    // A 10° sensor of 1400 × 1000 px: stars to 6.5 among 2000 noise peaks as bright as all but
+    // the four brightest stars, as an extractor leaves them on a noisy real frame. The search
+    // over the range fixes the focal length from triangles of the ten brightest spots, most of
+    // them noise here; the grid of focal lengths about the given one finds what the field as
+    // given would have, with the focal length refined over the stars.
+    use rand::{Rng, SeedableRng};
+    let catalog = bundled();
+    let truth = Camera::from_fov(10f64.to_radians(), 1400.0, 1000.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let sim = SimConfig {
+        mag_limit: Some(6.5),
+        noise_px: 0.3,
+        mag_noise: 0.2,
+        ..Default::default()
+    };
+    let config = IdentifyConfig::default();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+    for off in [0.01, -0.02] {
+        let given = Camera::from_fov((10.0f64 * (1.0 + off)).to_radians(), 1400.0, 1000.0).unwrap();
+        let mut identified = 0;
+        for seed in 0..20u64 {
+            let f = simulate(&catalog, &truth, &sim, seed).unwrap();
+            let mut sorted = f.magnitudes.clone();
+            sorted.sort_by(f64::total_cmp);
+            let floor = sorted[4.min(sorted.len() - 1)];
+            let mut xy = f.centroids.clone();
+            let mut mags = f.magnitudes.clone();
+            for _ in 0..2000 {
+                xy.push([rng.random_range(0.0..1400.0), rng.random_range(0.0..1000.0)]);
+                mags.push(floor + rng.random_range(0.0..3.0));
+            }
+            let id = solver.identify(&xy, Some(&mags), &given, &config).unwrap();
+            let real = f.centroids.len();
+            for (k, named) in id.catalog_index.iter().enumerate() {
+                if named.is_some() {
+                    assert!(
+                        k < real && *named == f.catalog_index[k],
+                        "seed {seed}, {off:+}: spot {k} named wrong"
+                    );
+                }
+            }
+            if id.is_identified() {
+                identified += 1;
+                let focal = id.focal_length_px.expect("the focal length found");
+                assert!(
+                    (focal / truth.focal_length_px - 1.0).abs() < 1e-3,
+                    "seed {seed}, {off:+}: focal {focal}"
+                );
+            }
+        }
+        // 18 of 20 each; the search over the range alone names 15 and 13.
+        assert!(identified >= 17, "{off:+}: {identified} of 20");
+    }
+}
