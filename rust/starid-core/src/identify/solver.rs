@@ -382,7 +382,7 @@ impl Solver {
         }
         self.count_scale_freedom(&mut id, centroids, camera, config);
         if self.field_in_doubt(&id, centroids, camera, config, start) {
-            self.search_within_tolerance(centroids, magnitudes, camera, config, &mut id)?;
+            self.search_within_tolerance(centroids, magnitudes, camera, config, start, &mut id)?;
         }
         id.noise_source = NoiseSource::of(config, &id);
         id.elapsed = start.elapsed();

@@ -224,6 +224,7 @@ impl Solver {
         magnitudes: Option<&[f64]>,
         camera: &Camera,
         config: &IdentifyConfig,
+        start: Instant,
         id: &mut Identification,
     ) -> Result<()> {
         let (shortest, longest) = config.focal_range_px(camera);
@@ -247,7 +248,7 @@ impl Solver {
         let mut found = found;
         if !found.identification.verified {
             if let Some(grid) =
-                self.search_scale_grid(centroids, magnitudes, camera, config, &found)?
+                self.search_scale_grid(centroids, magnitudes, camera, config, start, &found)?
             {
                 found = grid;
             }
@@ -302,13 +303,14 @@ impl Solver {
     /// absorbs a scale error of a pixel or so at the edge and finds stars among false spots.
     /// Each solution's false-match bound is multiplied by the number of focal lengths in the
     /// grid (a union bound over them); `before` is the search over the range, whose work the
-    /// result adds to.
+    /// result adds to. The frame's time limit, counted from `start`, holds for the whole grid.
     fn search_scale_grid(
         &self,
         centroids: &[[f64; 2]],
         magnitudes: Option<&[f64]>,
         camera: &Camera,
         config: &IdentifyConfig,
+        start: Instant,
         before: &crate::unknown_focal::FocalIdentification,
     ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
         let (shortest, longest) = config.focal_range_px(camera);
@@ -331,10 +333,15 @@ impl Solver {
             ..config.clone()
         };
         let mut hypotheses = before.identification.hypotheses;
+        let deadline = config.timeout.map(|t| start + t);
         for f in grid {
-            if config.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+            if stop_now(deadline, config.cancel.as_ref()) {
                 break;
             }
+            let each = IdentifyConfig {
+                timeout: deadline.map(|d| d.saturating_duration_since(Instant::now())),
+                ..each.clone()
+            };
             // Identified at the grid's focal length, chosen before the frame was seen: its bound
             // is the one that counts (a focal length refined over the matches fits them, and
             // its identification's bound would count the fit as evidence).
