@@ -148,6 +148,23 @@ def test_cli_identifies_images(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["identify", str(tmp_path / "absent.png"), "--fov-deg", "12"]) == 2
 
 
+def test_cli_chooses_the_catalogue_for_a_narrow_field(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from PIL import Image
+
+    from starid.cli import main
+
+    # A 5° field holds too few stars of the default catalogue: the command, as identify() does,
+    # takes the deep bundled one for it.
+    img, truth = starid.simulate_image(None, 5.0, (1024, 768), seed=3, mag_limit=8.0)
+    p = tmp_path / "narrow.png"
+    Image.fromarray(img).save(p)
+    assert main(["identify", str(p), "--fov-deg", "5", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["ok"] and abs(out["ra_deg"] - truth.ra_deg) < 0.1, out
+
+
 @pytest.mark.parametrize("mirrored", [False, True])
 def test_wcs_round_trip(bundled: starid.Catalog, mirrored: bool) -> None:
     import starid.wcs as sw

@@ -223,7 +223,9 @@ def _identify(args: argparse.Namespace) -> int:
         return 2
     refuse_overwriting([args.wcs, args.annotate, args.corr], [*files, args.catalog])
     fov_range = None if args.fov_range_deg is None else tuple(sorted(args.fov_range_deg))
-    catalog = resolve_catalog(args.catalog)
+    # Without --catalog each camera gets the bundled catalogue deep enough for its field, as
+    # starid.identify chooses it.
+    catalog = None if args.catalog is None else resolve_catalog(args.catalog)
     results: list[dict[str, Any]] = []
     failures = 0
     # A progress bar on a terminal's stderr for long runs; the results go to stdout all the same.
