@@ -270,8 +270,9 @@ impl Solver {
                                     .map(|d| d.saturating_duration_since(Instant::now())),
                                 ..per_call.clone()
                             };
-                            let (done, hyps) = self
-                                .finish(centroids, magnitudes, width_px, height_px, f, &per_call)?;
+                            let camera = Camera::from_focal_length(f, width_px, height_px)?;
+                            let (done, hyps) =
+                                self.finish(centroids, magnitudes, camera, None, &per_call)?;
                             hypotheses_total += hyps;
                             if let Some((mut id, mut camera, fit)) = done {
                                 // The focal check of a known camera, on the camera found: an
@@ -330,24 +331,29 @@ impl Solver {
         })
     }
 
-    /// Identify with focal length `f`; on success refine `f` over all matches and identify again
-    /// with the refined camera. Returns the identification, the camera, the fit and the
-    /// hypotheses spent.
+    /// Identify with `camera` (or take `first`, its identification made already); on success
+    /// refine the focal length over all matches and identify again with the refined camera.
+    /// Returns the identification, the camera, the fit and the hypotheses spent (`first`'s not
+    /// counted again).
     pub(crate) fn finish(
         &self,
         centroids: &[[f64; 2]],
         magnitudes: Option<&[f64]>,
-        width_px: f64,
-        height_px: f64,
-        f: f64,
+        mut camera: Camera,
+        mut first: Option<Identification>,
         config: &IdentifyConfig,
     ) -> Result<(Option<Solved>, usize)> {
-        let mut camera = Camera::from_focal_length(f, width_px, height_px)?;
         let mut hyps = 0;
         let mut last: Option<(Identification, PointingFit)> = None;
         for _round in 0..3 {
-            let id = self.identify_found(centroids, magnitudes, &camera, config)?;
-            hyps += id.hypotheses;
+            let id = match first.take() {
+                Some(id) => id,
+                None => {
+                    let id = self.identify_found(centroids, magnitudes, &camera, config)?;
+                    hyps += id.hypotheses;
+                    id
+                }
+            };
             let Some(r) = id.r_icrs_to_cam.filter(|_| id.is_identified()) else {
                 return Ok((last.map(|(id, fit)| (id, camera, fit)), hyps));
             };
@@ -373,7 +379,7 @@ impl Solver {
             // MAX_FOCAL_SIGMA) and with enough leverage that the scale error at the field's
             // corner stays within FOCAL_LEVER noise σ. A tight cluster of stars (the Pleiades)
             // can verify at a wrong scale; this sends the search on instead.
-            let half_diag = 0.5 * width_px.hypot(height_px);
+            let half_diag = 0.5 * camera.width_px.hypot(camera.height_px);
             let rel = fit.focal_sigma_px() / f_new;
             let lever = rel * half_diag / fit.sigma_px.max(1e-3);
             if !(rel <= MAX_FOCAL_SIGMA && lever <= FOCAL_LEVER) {
@@ -384,7 +390,7 @@ impl Solver {
             if settled {
                 break;
             }
-            camera = Camera::from_focal_length(f_new, width_px, height_px)?;
+            camera.focal_length_px = f_new;
         }
         Ok((last.map(|(id, fit)| (id, camera, fit)), hyps))
     }

@@ -358,14 +358,7 @@ impl Solver {
             }
             // Then with the focal length refined over the stars matched, until it settles (the
             // grid's may lie a step off the truth).
-            let (done, hyps) = self.finish(
-                centroids,
-                magnitudes,
-                camera.width_px,
-                camera.height_px,
-                f,
-                &each,
-            )?;
+            let (done, hyps) = self.finish(centroids, magnitudes, cam, Some(first), &each)?;
             hypotheses += hyps;
             let Some((mut id, cam, fit)) = done else {
                 continue;
