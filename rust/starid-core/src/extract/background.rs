@@ -220,10 +220,10 @@ pub(super) const CLIPPED_SHARE: f64 = 0.08;
 /// (`clipped`, the share of samples at the lowest value, at least [`CLIPPED_SHARE`]: frames
 /// whose background was subtracted and cut at zero), two quantiles above the clipped ones:
 /// the median and the third quartile where less than half is clipped (a distribution clipped
-/// below its median keeps it), higher ones where more is. Quantiles are read between the
-/// midpoints of distinct values ([`tied_quantile`]), so that quantised pixels do not round
-/// the spread to whole levels: a noise of a third of a level still measures about that,
-/// where the median absolute deviation reads 0.
+/// below its median keeps it), higher ones where more is. Quantiles are read across the width
+/// of the samples' levels ([`tied_quantile`]), so that quantised pixels do not round the
+/// spread to whole levels: a noise of a third of a level still measures about that, where the
+/// median absolute deviation reads 0.
 pub(super) fn spread_sigma(s: &mut [f32], clipped: f64) -> f64 {
     s.sort_unstable_by(f32::total_cmp);
     let (pa, pb) = if clipped >= CLIPPED_SHARE {
@@ -232,24 +232,38 @@ pub(super) fn spread_sigma(s: &mut [f32], clipped: f64) -> f64 {
     } else {
         (0.25, 0.75)
     };
-    let spread = tied_quantile(s, pb) - tied_quantile(s, pa);
+    let step = level_step(s);
+    let spread = tied_quantile(s, pb, step) - tied_quantile(s, pa, step);
     (spread / (normal_quantile(pb) - normal_quantile(pa))).max(0.0)
 }
 
-/// The `p` quantile of sorted samples, values spread evenly between the midpoints to their
-/// distinct neighbours: a run of `n` equal quantised values stands for a level's whole width.
-pub(super) fn tied_quantile(sorted: &[f32], p: f64) -> f64 {
+/// The `p` quantile of sorted samples whose values come in levels `step` apart, a run of equal
+/// values spread evenly over its level's width (`v ± step / 2`): quantised pixels keep their
+/// spread instead of rounding it to whole levels. For continuous samples `step` is tiny and
+/// this is the plain quantile.
+pub(super) fn tied_quantile(sorted: &[f32], p: f64, step: f64) -> f64 {
     let n = sorted.len();
     let rank = (p * n as f64).clamp(0.0, n as f64);
-    let k = (rank as usize).min(n - 1);
-    let v = sorted[k];
+    let v = sorted[(rank as usize).min(n - 1)];
     let lo = sorted.partition_point(|&x| x < v);
     let hi = sorted.partition_point(|&x| x <= v);
-    let below = if lo > 0 { sorted[lo - 1] } else { v };
-    let above = if hi < n { sorted[hi] } else { v };
-    let (edge_lo, edge_hi) = (0.5 * f64::from(below + v), 0.5 * f64::from(v + above));
     let t = ((rank - lo as f64) / (hi - lo) as f64).clamp(0.0, 1.0);
-    edge_lo + t * (edge_hi - edge_lo)
+    f64::from(v) + (t - 0.5) * step
+}
+
+/// The spacing of the levels of sorted samples: the smallest gap between distinct values (0
+/// where all are equal).
+fn level_step(sorted: &[f32]) -> f64 {
+    let gap = sorted
+        .windows(2)
+        .map(|w| f64::from(w[1] - w[0]))
+        .filter(|&d| d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if gap.is_finite() {
+        gap
+    } else {
+        0.0
+    }
 }
 
 /// The standard normal quantile Φ⁻¹(p) for p in (0, 1): Acklam's rational approximation
