@@ -11,8 +11,8 @@ so running this again gives the same content.
 The two bundled catalogues:
 
     python catalog/make_hipparcos_catalog.py                  # Hp <= 6.5, compiled into the core
-    python catalog/make_hipparcos_catalog.py --mag-limit 8 \
-        --output python/starid/data/hipparcos_hp8_j2000.npz    # Hp <= 8, for narrow fields
+    python catalog/make_hipparcos_catalog.py --mag-limit 11 \
+        --output python/starid/data/hipparcos_hp11_j2000.npz   # Hp <= 11, for narrow fields
 
 An ``.npz`` output holds ``id`` (int32 HIP), ``ra_mas`` and ``dec_mas`` (int32, milliarcseconds,
 rounded: the catalogue's own precision) and ``mag_mmag`` (int16, millimagnitudes): 14 bytes a star

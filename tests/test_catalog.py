@@ -208,7 +208,7 @@ def test_catalogue_path_is_read_once(tmp_path: Path, contest: starid.Catalog) ->
 
 def test_catalog_none_is_deep_enough_for_the_field() -> None:
     shallow, deep = starid.Catalog.default(), starid.Catalog.deep()
-    assert len(deep) == 37622 and deep.mag.max() <= 8.0 and len(shallow) < len(deep)
+    assert len(deep) == 37635 and deep.mag.max() <= 8.0 and len(shallow) < len(deep)
     # The default holds ~28 stars in a 12-degree square field, ~7 in a 6-degree one.
     assert starid.catalog_for(12.0, (512, 512)) is shallow
     assert starid.catalog_for(6.0, (1392, 1080)) is deep
@@ -240,3 +240,44 @@ def test_catalog_none_is_deep_enough_for_the_field() -> None:
         assert abs(deep.ra_deg[k] - ra) * 3.6e6 < 1.0 and abs(deep.dec_deg[k] - dec) * 3.6e6 < 1.0
     k2 = starid.simulate_scene("K2", seed=5)
     assert starid.identify(k2.xy, fov_deg=k2.fov_deg, image_size=k2.image_size, magnitudes=k2.magnitudes).catalog == deep.name
+
+
+def test_catalog_none_goes_as_deep_as_the_spots() -> None:
+    deep8, deep11 = starid.Catalog.deep(), starid.Catalog.deep(11.0)
+    assert len(deep11) == 114825 and deep11.mag.max() <= 11.0
+    assert starid.Catalog.deep(8.0) is deep8
+    known = np.isin(deep8.ids, deep11.ids)
+    assert known.all()
+    size = (1392, 1040)
+    # Spots to magnitude 11 in a narrow field: the Hp <= 8 catalogue would leave most of them
+    # out, so the one to Hp 11 is chosen; told that the zero point is unknown, the field decides.
+    faint = [7.0, 9.6, 10.1, 10.4, 10.8, 10.9]
+    assert starid.catalog_for(6.0, size, faint) is deep11
+    assert starid.catalog_for(6.0, size, faint, mag_offset=None) is deep8
+    assert starid.catalog_for(6.0, size, np.array(faint) + 3.0, mag_offset=3.0) is deep11
+    assert starid.catalog_for(6.0, size, [5.0, 6.0, 7.5]) is deep8
+    # A 10-degree field of bright spots keeps the default; faint ones take Hp <= 8, never Hp
+    # <= 11 (about 200 stars a field: more than MAX_STARS_PER_FIELD); a wide field stays default.
+    assert starid.catalog_for(10.0, (1920, 1440), [4.0, 5.5, 6.2]) is starid.Catalog.default()
+    assert starid.catalog_for(10.0, (1920, 1440), [7.5, 9.0, 10.5]) is deep8
+    assert starid.catalog_for(25.0, (1920, 1440), [9.0, 10.0]) is starid.Catalog.default()
+    # Magnitudes that are not numbers leave the choice to the field; identify() names them.
+    assert starid.catalog_for(6.0, size, ["a", "b"]) is deep8  # type: ignore[list-item]
+    assert starid.catalog_for(6.0, size, [float("nan")]) is deep8
+    for bad in (11.5, "x", float("nan")):
+        with pytest.raises(starid.InvalidInputError):
+            starid.Catalog.deep(bad)  # type: ignore[arg-type]
+    # A narrow deep frame identified with catalog=None: every star it names is right, most of
+    # its stars are named, and the result names the catalogue; a batch chooses the same.
+    frames = [
+        starid.simulate(deep11, 6.0, size, seed=s, mag_limit=11.0, noise_px=0.3, mag_noise=0.3, false_stars=5)
+        for s in range(3)
+    ]
+    one = [starid.identify(f.xy, fov_deg=6.0, image_size=size, magnitudes=f.magnitudes) for f in frames]
+    batch = starid.identify_many(
+        [f.xy for f in frames], fov_deg=6.0, image_size=size, magnitudes=[f.magnitudes for f in frames]
+    )
+    for f, res in zip(frames + frames, one + batch):
+        named = res.ids >= 0
+        assert res.ok and res.catalog == deep11.name
+        assert np.array_equal(res.ids[named], f.true_ids[named]) and named.sum() >= 0.9 * f.n_real

@@ -14,7 +14,7 @@ the Rust core; see ARCHITECTURE.md.
 
 from . import guide, plot, pointing, tracking, wcs
 from .calibration import calibrate, load_camera, save_camera
-from ._catalog import MIN_STARS_PER_FIELD, Catalog, catalog_for
+from ._catalog import BUNDLED_DEPTHS, MAX_STARS_PER_FIELD, MIN_STARS_PER_FIELD, Catalog, catalog_for
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._batch import identify_many
 from ._identify import (
@@ -41,6 +41,8 @@ __all__ = [
     "load_camera",
     "save_camera",
     "MIN_STARS_PER_FIELD",
+    "MAX_STARS_PER_FIELD",
+    "BUNDLED_DEPTHS",
     "catalog_for",
     "Centroids",
     "ImageIdentification",

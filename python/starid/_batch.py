@@ -107,7 +107,6 @@ def identify_many(
                  hint_uncertainty_deg=hint_uncertainty_deg, hint_fallback=hint_fallback, config=config, image_size=image_size),
         )
     cam = _camera(camera, fov_deg, image_size)
-    cat = resolve_catalog_for(catalog, cam)
     if cam is None:
         w, h = _image_size(image_size)
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
@@ -121,6 +120,7 @@ def identify_many(
         raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
     nthreads = None if threads is None else int(threads)
     cfg = _config(config, settings)
+    cat = resolve_catalog_for(catalog, cam, _pooled(magnitudes), cfg.mag_offset)
     if cam is not None and attitude_hint is None and type(frames) is list:
         # The common batch (lists of float64 arrays) is read by the core without a Python loop;
         # any other form comes back NotImplemented and is converted below, frame by frame.
@@ -162,6 +162,17 @@ def identify_many(
         f = frames[i]
         results[i] = _invalid(msg, len(f) if isinstance(f, Sized) else 0)
     return results
+
+
+def _pooled(magnitudes: Optional[Sequence[Any]]) -> Optional[npt.NDArray[np.float64]]:
+    """A batch's magnitudes as one array, for the choice of catalogue (None where any is not
+    numeric: the frame's own check names it)."""
+    if magnitudes is None:
+        return None
+    try:
+        return np.concatenate([np.asarray(m, dtype=np.float64).ravel() for m in magnitudes])
+    except (TypeError, ValueError):
+        return None
 
 
 def _image_batch(

@@ -23,12 +23,22 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 _default: Optional["Catalog"] = None
-_deep: Optional["Catalog"] = None
-DEEP_NAME = "Hipparcos Hp<=8 J2000 (bundled)"
+# The bundled deep catalogues by magnitude limit, each cut once from the Hp <= 11 file.
+_deep: "dict[float, Catalog]" = {}
+_DEEP_FILE = "hipparcos_hp11_j2000.npz"
+_DEEP_NAME = re.compile(r"Hipparcos Hp<=([0-9.]+) J2000 \(bundled\)")
 
-#: With ``catalog=None``, the deep bundled catalogue is used when the default one holds fewer
+#: The magnitude limits of the bundled catalogues ``catalog=None`` chooses among, shallowest
+#: first: :meth:`Catalog.default`, :meth:`Catalog.deep` and ``Catalog.deep(11.0)``.
+BUNDLED_DEPTHS = (6.5, 8.0, 11.0)
+
+#: With ``catalog=None``, a deeper bundled catalogue is used when the default one holds fewer
 #: stars than this in a field of the camera's size on average.
 MIN_STARS_PER_FIELD = 10.0
+
+#: With ``catalog=None``, a catalogue deeper than the field needs is chosen for faint spots only
+#: while it holds at most this many stars in the field on average (the pair index grows with it).
+MAX_STARS_PER_FIELD = 150.0
 
 
 def _with_path(e: Exception, path: str) -> CatalogError:
@@ -237,22 +247,39 @@ class Catalog:
         return cls._wrap(native, f"Hipparcos Hp<={mag_limit:g} J{epoch:g}")
 
     @classmethod
-    def deep(cls) -> "Catalog":
-        """The bundled deep catalogue: Hipparcos stars brighter than Hp 8 at J2000.0 (37 622
-        stars), for narrow fields, where the default one leaves too few stars (see
-        :func:`catalog_for`). Loaded once and shared.
+    def deep(cls, mag_limit: float = 8.0) -> "Catalog":
+        """A bundled deep catalogue: the Hipparcos stars to ``mag_limit`` (at most 11) at J2000.0,
+        for narrow fields, where the default one leaves too few stars (see :func:`catalog_for`).
+        To Hp 8 (the default) it holds 37 635 stars, to Hp 11 114 825. Each is loaded once and
+        shared.
+
+        >>> import starid
+        >>> len(starid.Catalog.deep()), len(starid.Catalog.deep(11.0))
+        (37635, 114825)
         """
-        global _deep
-        if _deep is None:
-            with np.load(Path(__file__).parent / "data" / "hipparcos_hp8_j2000.npz") as z:
-                _deep = cls(
-                    z["id"].astype(np.int64),
-                    z["ra_mas"] / 3.6e6,
-                    z["dec_mas"] / 3.6e6,
-                    z["mag_mmag"] / 1000.0,
-                    name=DEEP_NAME,
-                )
-        return _deep
+        try:
+            limit = float(mag_limit)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"mag_limit must be a number, got {mag_limit!r}") from None
+        if not -2.0 <= limit <= BUNDLED_DEPTHS[-1]:
+            raise InvalidInputError(
+                f"the bundled catalogue goes to Hp {BUNDLED_DEPTHS[-1]:g}: mag_limit must be in [-2, 11], got {mag_limit!r}"
+            )
+        hit = _deep.get(limit)
+        if hit is not None:
+            return hit
+        with np.load(Path(__file__).parent / "data" / _DEEP_FILE) as z:
+            keep = z["mag_mmag"] <= round(limit * 1000)
+            cat = cls(
+                z["id"][keep].astype(np.int64),
+                z["ra_mas"][keep] / 3.6e6,
+                z["dec_mas"][keep] / 3.6e6,
+                z["mag_mmag"][keep] / 1000.0,
+                name=f"Hipparcos Hp<={limit:g} J2000 (bundled)",
+            )
+        if len(_deep) < 16:
+            _deep[limit] = cat
+        return cat
 
     @classmethod
     def default(cls) -> "Catalog":
@@ -412,50 +439,116 @@ def field_solid_angle_sr(fov_deg: float, image_size: tuple[float, float]) -> flo
     return 4 * math.asin(math.sin(a / 2) * math.sin(b / 2))
 
 
-def catalog_for(fov_deg: float, image_size: tuple[float, float] = (1.0, 1.0)) -> "Catalog":
-    """The bundled catalogue deep enough for a field: the default one (Hipparcos to Hp 6.5)
-    when it holds at least :data:`MIN_STARS_PER_FIELD` stars in a field of this size on
-    average (fields wider than about 7.2 degrees square), the deep one (to Hp 8) otherwise.
-    ``catalog=None`` chooses this way; results name the choice (``Identification.catalog``).
+def catalog_for(
+    fov_deg: float,
+    image_size: tuple[float, float] = (1.0, 1.0),
+    magnitudes: Optional[npt.ArrayLike] = None,
+    mag_offset: Optional[float] = 0.0,
+) -> "Catalog":
+    """The bundled catalogue deep enough for a field and, where they are known, its spots.
+
+    The field alone: the default catalogue (Hipparcos to Hp 6.5) when it holds at least
+    :data:`MIN_STARS_PER_FIELD` stars in a field of this size on average (fields wider than
+    about 7.2 degrees square), the deep one (to Hp 8) otherwise. The spots' ``magnitudes`` on
+    the catalogue's scale (``magnitudes - mag_offset``; ``mag_offset=None``, a zero point not
+    known, leaves the choice to the field) go deeper where the field's catalogue would leave
+    more than a quarter of them out: the shallowest of :data:`BUNDLED_DEPTHS` whose limit at
+    least three quarters of the spots reach, among those holding at most
+    :data:`MAX_STARS_PER_FIELD` stars in the field. ``catalog=None`` chooses this way; results name the choice (``Identification.catalog``).
 
     >>> import starid
     >>> starid.catalog_for(12.0, (512, 512)).name, starid.catalog_for(6.0, (1392, 1080)).name
     ('Hipparcos Hp<=6.5 J2000 (bundled)', 'Hipparcos Hp<=8 J2000 (bundled)')
+    >>> starid.catalog_for(6.0, (1392, 1080), magnitudes=[7.9, 9.5, 10.2, 10.8, 10.9]).name
+    'Hipparcos Hp<=11 J2000 (bundled)'
     """
     try:
         key = (float(fov_deg), float(image_size[0]), float(image_size[1]))
     except (TypeError, ValueError, IndexError) as e:
         raise InvalidInputError(f"catalog_for needs fov_deg and image_size (width, height) as numbers: {e}") from None
-    if not (0 < key[0] < 180 and all(math.isfinite(v) and v > 0 for v in key[1:])):
-        raise InvalidInputError(f"fov_deg must be in (0, 180) and image_size positive, got {fov_deg!r}, {image_size!r}")
-    hit = _FIELD_CHOICE.get(key)
-    if hit is not None:
-        return hit
-    shallow = Catalog.default()
-    stars = len(shallow) * field_solid_angle_sr(key[0], (key[1], key[2])) / (4 * math.pi)
-    chosen = shallow if stars >= MIN_STARS_PER_FIELD else Catalog.deep()
-    if len(_FIELD_CHOICE) < 256:
-        _FIELD_CHOICE[key] = chosen
-    return chosen
+    choice = _FIELD_CHOICE.get(key)
+    if choice is None:
+        if not (0 < key[0] < 180 and all(math.isfinite(v) and v > 0 for v in key[1:])):
+            raise InvalidInputError(f"fov_deg must be in (0, 180) and image_size positive, got {fov_deg!r}, {image_size!r}")
+        choice = _field_choice(key)
+    chosen, deeper = choice
+    if magnitudes is None or mag_offset is None or not deeper:
+        return chosen
+    try:
+        m = np.asarray(magnitudes, dtype=np.float64)
+        quarter = m.size / 4
+        # The shallowest limit that at most a quarter of the spots pass (NaN passes none).
+        for limit in deeper[:-1]:
+            if np.count_nonzero(m > limit + mag_offset) <= quarter:
+                break
+        else:
+            limit = deeper[-1]
+    except (TypeError, ValueError):
+        return chosen  # malformed magnitudes: the identification names what is wrong with them
+    return chosen if limit == deeper[0] or m.size == 0 else Catalog.deep(limit)
 
+
+def _limit_of(cat: "Catalog") -> float:
+    """The magnitude limit of a bundled catalogue, from its name."""
+    if cat is Catalog.default():
+        return BUNDLED_DEPTHS[0]
+    m = _DEEP_NAME.fullmatch(cat.name or "")
+    return float(m.group(1)) if m else math.inf
+
+
+def _field_choice(key: tuple[float, float, float]) -> "tuple[Catalog, tuple[float, ...]]":
+    """The catalogue a field needs, and the deeper bundled limits it may use for faint spots."""
+    sky = field_solid_angle_sr(key[0], (key[1], key[2])) / (4 * math.pi)
+    shallow = Catalog.default()
+    chosen = shallow if len(shallow) * sky >= MIN_STARS_PER_FIELD else Catalog.deep()
+    base = _limit_of(chosen)
+    deeper = tuple(
+        limit for limit in BUNDLED_DEPTHS if limit > base and _bundled_count(limit) * sky <= MAX_STARS_PER_FIELD
+    )
+    if deeper:
+        deeper = (base,) + deeper
+    if len(_FIELD_CHOICE) < 256:
+        _FIELD_CHOICE[key] = (chosen, deeper)
+    return chosen, deeper
+
+
+def _bundled_count(limit: float) -> int:
+    """How many stars the bundled catalogue to ``limit`` holds (without building it)."""
+    if limit == BUNDLED_DEPTHS[0]:
+        return len(Catalog.default())
+    global _BUNDLED_MAGS
+    if _BUNDLED_MAGS is None:
+        with np.load(Path(__file__).parent / "data" / _DEEP_FILE) as z:
+            _BUNDLED_MAGS = np.sort(z["mag_mmag"])
+    return int(np.searchsorted(_BUNDLED_MAGS, round(limit * 1000), side="right"))
+
+
+_BUNDLED_MAGS: Optional[npt.NDArray[np.int16]] = None
 
 # The choice per field (a few camera geometries in a process): identify() pays a dict look-up.
-_FIELD_CHOICE: "dict[tuple[float, float, float], Catalog]" = {}
+_FIELD_CHOICE: "dict[tuple[float, float, float], tuple[Catalog, tuple[float, ...]]]" = {}
 
 
-def resolve_catalog_for(catalog: Union["Catalog", PathLike, None], camera: Any) -> "Catalog":
+def resolve_catalog_for(
+    catalog: Union["Catalog", PathLike, None],
+    camera: Any,
+    magnitudes: Optional[npt.ArrayLike] = None,
+    mag_offset: Optional[float] = 0.0,
+) -> "Catalog":
     """As :func:`resolve_catalog`, but ``None`` → :func:`catalog_for` the camera (a
-    ``starid.Camera``; None: the default catalogue)."""
+    ``starid.Camera``; None: the default catalogue) and the spots' magnitudes."""
     if catalog is None and camera is not None:
-        return catalog_for(camera.fov_deg, camera.image_size)
+        return catalog_for(camera.fov_deg, camera.image_size, magnitudes, mag_offset)
     return resolve_catalog(catalog)
 
 
 def resolve_catalog_of(catalog: Union["Catalog", PathLike, None], result: Any) -> "Catalog":
     """As :func:`resolve_catalog`, but ``None`` → the bundled catalogue ``result`` (an
     identification) was made with, by its ``catalog`` name."""
-    if catalog is None and getattr(result, "catalog", None) == DEEP_NAME:
-        return Catalog.deep()
+    if catalog is None:
+        m = _DEEP_NAME.fullmatch(getattr(result, "catalog", None) or "")
+        if m is not None and float(m.group(1)) != BUNDLED_DEPTHS[0]:
+            return Catalog.deep(float(m.group(1)))
     return resolve_catalog(catalog)
 
 

@@ -461,7 +461,6 @@ def identify(
                 cam = _camera(None, fov_deg, image_size)
         else:
             cam = _camera(camera, fov_deg, image_size)
-        cat = catalog if type(catalog) is Catalog else resolve_catalog_for(catalog, cam)
         # mag_offset is a named keyword so that its common values need no settings dict.
         if config is None and not settings:
             if mag_offset is _UNSET:
@@ -479,6 +478,7 @@ def identify(
                 cached = None
             # Built outside the handler, so that a refused setting's error chains to nothing.
             cfg = _config(None, settings) if cached is None else cached
+        cat = catalog if type(catalog) is Catalog else resolve_catalog_for(catalog, cam, magnitudes, cfg.mag_offset)
         res = _starid.identify_frame(
             cat._native, xy, magnitudes, cam, cfg, attitude_hint, hint_uncertainty_deg, hint_fallback
         )
@@ -497,10 +497,10 @@ def identify(
             config=config, **settings,
         ).identification
     cam = _camera(camera, fov_deg, image_size)
-    cat = resolve_catalog_for(catalog, cam)
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
     cfg = _config(config, settings)
+    cat = resolve_catalog_for(catalog, cam, m, cfg.mag_offset)
     if cam is None:
         w, h = _image_size(image_size)
         lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from . import _starid
-from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+from ._catalog import Catalog, resolve_catalog
 from ._errors import InvalidInputError
 from ._batch import identify_many
 from ._identify import CatalogLike, Identification, _camera, _invalid
@@ -99,13 +99,14 @@ def _fingerprint(cat: Catalog) -> str:
     return h.hexdigest()
 
 
-def _worker_catalog(cat: Catalog, key: str) -> Catalog:
-    """The worker's own copy of a catalogue (and so its cached indexes)."""
-    return _WORKER_CATALOGS.setdefault(key, cat)
+def _worker_catalog(cat: Optional[Catalog], key: str) -> Optional[Catalog]:
+    """The worker's own copy of a catalogue (and so its cached indexes); None (the bundled
+    catalogue each batch chooses) stays None."""
+    return None if cat is None else _WORKER_CATALOGS.setdefault(key, cat)
 
 
 def _identify_records(
-    records: list[Any], cat: Catalog, key: str, kwargs: dict[str, Any], spots: bool, frame_dtype: str
+    records: list[Any], cat: Optional[Catalog], key: str, kwargs: dict[str, Any], spots: bool, frame_dtype: str
 ) -> pd.DataFrame:
     """One partition: records ``(frame_key, xy[, magnitudes])`` → result rows. A record of
     another shape is an ``invalid_input`` row (its key, or :data:`MISSING_KEY` without one);
@@ -139,7 +140,7 @@ def _identify_frames_of(
     keys: Any,
     xys: list[Any],
     mags: Optional[list[Any]],
-    cat: Catalog,
+    cat: Optional[Catalog],
     kwargs: dict[str, Any],
     spots: bool,
     frame_dtype: str,
@@ -293,11 +294,14 @@ def identify_frames(
         frame for frame; a malformed frame or record gets status ``invalid_input``, never stops
         the job. With ``mag_offset=None`` (a zero point to learn), each partition is the batch
         that learns it, as ``identify_many`` over that partition's frames would: a job of many
-        partitions does not pool them. So is the centroid noise (``learn_noise``).
+        partitions does not pool them. So is the centroid noise (``learn_noise``), and with
+        ``catalog=None`` the bundled catalogue chosen for the frames' magnitudes.
     """
-    cam = _camera(kwargs.get("camera"), fov_deg, image_size) if (fov_deg is not None or kwargs.get("camera") is not None) else None
-    cat = resolve_catalog_for(catalog, cam)  # as identify_many chooses
-    key = _fingerprint(cat)
+    if fov_deg is not None or kwargs.get("camera") is not None:
+        _camera(kwargs.get("camera"), fov_deg, image_size)  # a bad camera is refused here, not in every partition
+    # catalog=None: each partition's identify_many chooses the bundled catalogue for its frames.
+    cat = None if catalog is None else resolve_catalog(catalog)
+    key = "" if cat is None else _fingerprint(cat)
     cat_node = delayed(cat, pure=True)
     if "magnitudes" in kwargs:
         raise InvalidInputError("give magnitudes inside the records (or mag_column), not as magnitudes=")
@@ -355,7 +359,7 @@ def identify_frames(
         ftype = frame_dtype or str(df[frame_column].dtype)
         meta = meta_for(ftype)
 
-        def part(p: pd.DataFrame, c: Catalog) -> pd.DataFrame:
+        def part(p: pd.DataFrame, c: Optional[Catalog]) -> pd.DataFrame:
             keys, xys, mags = _frames_of_spots(p, frame_column, x_column, y_column, mag_column)
             return _identify_frames_of(keys, xys, mags, _worker_catalog(c, key), kw, spots, ftype)
 
