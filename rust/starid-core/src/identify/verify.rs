@@ -382,13 +382,17 @@ impl Search<'_> {
                     Some(k) if k == s1 => (straight, crossed),
                     _ => (crossed, straight),
                 };
-                // (Only where the magnitude gate allows the swap: a gate that keeps the owner from
-                // the other star already told them apart.)
+                // (Only where magnitudes allow the swap, within twice the gate's tolerance: a
+                // close double's two magnitudes may be swapped by more than `mag_tolerance` in
+                // noisy photometry, but a false spot far off in magnitude is no rival.)
+                let loose = |o: u32, star: u32| {
+                    gate.is_none_or(|g| {
+                        f64::from(mags[star as usize]) <= f64::from(g[o as usize][1]) + tol
+                    })
+                };
                 let doubt = owned.is_some_and(|k| {
                     let other = if k == s1 { s2 } else { s1 };
-                    swapped - kept < decisive
-                        && gate_allows(gate, mags, oa as usize, other)
-                        && gate_allows(gate, mags, ob as usize, k)
+                    swapped - kept < decisive && loose(oa, other) && loose(ob, k)
                 });
                 let (for_a, for_b) = if straight < crossed {
                     (s1, s2)
