@@ -6,11 +6,12 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import starid
 import starid.pointing as sp
+from starid._unknown_field import stages
 from starid.cli import main
 
 ARCSEC = math.radians(1 / 3600)
@@ -142,6 +143,50 @@ def test_unknown_fov_identification(bundled: starid.Catalog) -> None:
         assert res.focal_sigma_px > 0
     assert wrong == 0
     assert ok >= tried - 1
+
+
+def _truth_frame(fov: float, seed: int) -> starid.Frame:
+    """A 1024x768 frame of stars to a depth that leaves a few dozen in the field."""
+    deep = starid.Catalog.deep(9.0)
+    limit = min(9.0, 6.0 + 12.0 / fov)
+    return starid.simulate(deep, fov, (1024, 768), seed=seed, mag_limit=limit, noise_px=0.3, mag_noise=0.2)
+
+
+@pytest.mark.parametrize("fov", [4.5, 6.0, 33.0, 45.0])
+def test_a_field_outside_the_default_range_is_found_without_being_given(fov: float) -> None:
+    # Narrow and wide fields, no field of view and no catalogue given, magnitudes of an unknown
+    # zero point: the bands beyond 8-25 degrees find them, each with its own catalogue depth.
+    f = _truth_frame(fov, seed=int(fov * 10))
+    res = starid.identify(f.xy, image_size=(1024, 768), magnitudes=f.magnitudes + 3.0, mag_offset=None)
+    assert res.ok and abs(res.fov_deg / fov - 1) < 2e-3
+    named = res.ids >= 0
+    assert np.array_equal(res.ids[named], f.true_ids[named]) and named.sum() >= 10
+    assert res.false_match_probability <= 1e-3 and res.time_s > 0
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.floats(4.0, 50.0), st.integers(0, 2**31))
+def test_an_unknown_field_is_never_named_wrong(fov: float, seed: int) -> None:
+    f = _truth_frame(fov, seed)
+    res = starid.identify(f.xy, image_size=(1024, 768), magnitudes=f.magnitudes + 3.0, mag_offset=None)
+    named = res.ids >= 0
+    assert np.array_equal(res.ids[named], f.true_ids[named])
+
+
+def test_the_stages_of_an_unknown_field() -> None:
+    size = (1024.0, 768.0)
+    plan = stages(None, None, size)
+    assert [(lo, hi, spots) for lo, hi, _, spots, _ in plan] == [
+        (8.0, 25.0, 8), (4.0, 8.0, 8), (4.0, 8.0, 8), (25.0, 60.0, 8), (8.0, 25.0, None)
+    ]
+    assert plan[1][2].name == "Hipparcos Hp<=7 J2000 (bundled)" and plan[3][2].name == "Hipparcos Hp<=5.5 J2000 (bundled)"
+    # A range given narrows the bands; the last stage searches all of it with every spot.
+    narrowed = [(lo, hi) for lo, hi, *_ in stages(None, (5.0, 10.0), size)]
+    assert narrowed == [(8.0, 10.0), (5.0, 8.0), (5.0, 8.0), (5.0, 10.0)]
+    # A catalogue given is searched in every band, once per band.
+    own = starid.Catalog.default()
+    plan = stages(own, None, size)
+    assert all(c is own for _, _, c, _, _ in plan) and len(plan) == 4
 
 
 @given(st.floats(0.0, 360.0), st.floats(-80.0, 80.0), st.floats(0.0, 360.0))

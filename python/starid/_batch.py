@@ -14,10 +14,10 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
+from ._unknown_field import identify_unknown_field
 from ._identify import (
     _F64,
     _UNSET,
-    DEFAULT_FOV_RANGE_DEG,
     CatalogLike,
     Identification,
     _camera,
@@ -109,7 +109,7 @@ def identify_many(
     cam = _camera(camera, fov_deg, image_size)
     if cam is None:
         w, h = _image_size(image_size)
-        lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
+        rng = None if fov_range_deg is None else _fov_range(fov_range_deg)
     elif fov_range_deg is not None:
         raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
     # One malformed frame does not stop the batch: it gets status "invalid_input" and the
@@ -147,7 +147,9 @@ def identify_many(
     if cam is None:
         if attitude_hint is not None:
             raise InvalidInputError("an attitude hint needs a known field of view (fov_deg or camera)")
-        results = _unknown_fov_batch(cat, xys, mags_or_none, (w, h), (lo, hi), cfg, threads)
+        results = cast(
+            list[Identification], identify_unknown_field(catalog, xys, mags_or_none, (w, h), rng, cfg, nthreads)
+        )
     elif attitude_hint is not None:
         results = _hinted_batch(
             cat, cam, xys, mags_or_none, attitude_hint, _positive("hint_uncertainty_deg", hint_uncertainty_deg),
@@ -270,16 +272,3 @@ def _hinted_batch(
     ]
     return _starid.identify_hinted_many(cat._native, xys, mags, cam, cfg, hints, uncertainty_deg, fallback, threads)
 
-
-def _unknown_fov_batch(
-    cat: Catalog,
-    xys: list[npt.NDArray[np.float64]],
-    mags: list[Optional[npt.NDArray[np.float64]]],
-    size: tuple[float, float],
-    fov_range: tuple[float, float],
-    cfg: Any,
-    threads: Optional[int],
-) -> list[Identification]:
-    """Frames of an unknown field of view, identified by the core in parallel (Ctrl-C stops them)."""
-    (w, h), (lo, hi) = size, fov_range
-    return _starid.identify_unknown_fov_many(cat._native, xys, mags, w, h, lo, hi, cfg, threads)

@@ -15,6 +15,7 @@ import numpy.typing as npt
 from . import _starid
 from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+from ._unknown_field import DEFAULT_FOV_RANGE_DEG, identify_unknown_field
 
 __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "simulate"]
 
@@ -130,10 +131,6 @@ def _check_image_size(image_size: Any) -> tuple[float, float]:
     if not (math.isfinite(w) and math.isfinite(h) and w >= 1 and h >= 1):
         raise InvalidInputError(f"image_size must be positive and finite, got {image_size!r}")
     return w, h
-
-
-#: Field-of-view range searched by :func:`identify` when ``fov_deg`` is not given.
-DEFAULT_FOV_RANGE_DEG = (8.0, 25.0)
 
 
 def _fov_range(fov_range_deg: Any) -> tuple[float, float]:
@@ -320,8 +317,10 @@ def identify(
         The camera as one object (size, focal length, principal point, Brown–Conrady
         distortion; ``starid.calibrate`` fits one), instead of ``fov_deg`` and ``image_size``.
     fov_range_deg : (lo, hi), optional
-        Range of the unknown field of view (default :data:`DEFAULT_FOV_RANGE_DEG`, 8 to 25
-        degrees); only without ``fov_deg``. The pair index is built for the widest field.
+        Range of the unknown field of view; only without ``fov_deg``. Without either, the
+        brightest spots are searched in 4 to 60 degrees, band by band, each band with a
+        catalogue deep enough for it, then every spot in :data:`DEFAULT_FOV_RANGE_DEG` (8 to
+        25 degrees); a range given narrows the bands (see ``starid._unknown_field``).
     magnitudes : array_like, shape (N,), optional
         Instrument magnitude of each centroid (smaller is brighter; any zero point). The search
         starts from the brightest stars (among catalogue stars that are locally bright first,
@@ -502,9 +501,10 @@ def identify(
     cfg = _config(config, settings)
     cat = resolve_catalog_for(catalog, cam, m, cfg.mag_offset)
     if cam is None:
-        w, h = _image_size(image_size)
-        lo, hi = _fov_range(DEFAULT_FOV_RANGE_DEG if fov_range_deg is None else fov_range_deg)
-        return _starid.identify_unknown_fov(cat._native, a, m, w, h, lo, hi, cfg)
+        size = _image_size(image_size)
+        rng = None if fov_range_deg is None else _fov_range(fov_range_deg)
+        res = identify_unknown_field(catalog, [a], [m], size, rng, cfg, None)[0]
+        return res  # type: ignore[no-any-return]  # an Identification
     if fov_range_deg is not None:
         raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
     if attitude_hint is not None:

@@ -1,0 +1,57 @@
+"""Frames of a field of view nobody gives: identified with neither ``fov_deg`` nor a range.
+
+    python benches/bench_unknown_field.py [--frames 60] [--bands 4 8 8 25 25 50] [--false-stars 0]
+
+Per band of fields of view: frames of 1024x768 px with a field drawn uniformly in the band,
+stars of ``Catalog.deep(9)`` to a depth that leaves a few dozen in the field (magnitude
+6 + 12 / fov, at most 9), 0.3 px and 0.2 mag of noise, magnitudes 3 mag off the catalogue's
+(``mag_offset=None``). Prints the frames identified, wrong ids, frames whose field came out
+more than 1 % off, and the median, 90th percentile and largest time per call (indexes built
+on first use included).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import starid
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--frames", type=int, default=60)
+    p.add_argument("--bands", type=float, nargs="+", default=[4, 8, 8, 25, 25, 50])
+    p.add_argument("--false-stars", type=int, default=0)
+    args = p.parse_args()
+    truth = starid.Catalog.deep(9.0)
+    size = (1024, 768)
+    for lo, hi in zip(args.bands[::2], args.bands[1::2]):
+        rng = np.random.default_rng(5)
+        ok = wrong = off = 0
+        times = []
+        for seed in range(args.frames):
+            fov = float(rng.uniform(lo, hi))
+            f = starid.simulate(
+                truth, fov, size, seed=seed, mag_limit=min(9.0, 6.0 + 12.0 / fov), noise_px=0.3, mag_noise=0.2,
+                false_stars=args.false_stars,
+            )
+            t0 = time.perf_counter()
+            res = starid.identify(f.xy, image_size=size, magnitudes=f.magnitudes + 3.0, mag_offset=None)
+            times.append(time.perf_counter() - t0)
+            named = res.ids >= 0
+            wrong += int(np.count_nonzero(named & (res.ids != f.true_ids)))
+            ok += res.ok
+            off += bool(res.ok and abs(res.fov_deg / fov - 1) > 0.01)
+        ms = np.array(times) * 1e3
+        print(
+            f"{lo:g}-{hi:g} deg, {args.false_stars} false spots: identified {ok}/{args.frames}, wrong ids {wrong}, "
+            f"field > 1 % off {off}; median {np.median(ms):.0f} ms, p90 {np.percentile(ms, 90):.0f} ms, "
+            f"max {ms.max():.0f} ms"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,187 @@
+"""A field of view not given: searched in stages, band by band, brightest spots first.
+
+Most frames are found from their few brightest spots, as pattern-hash solvers find them: a
+stage searches the frames still unidentified for a focal length in one band of fields of view,
+with a bundled catalogue about as deep as those spots in a field of that band, on the brightest
+:data:`STAGE_SPOTS` spots and a small pair budget. A frame found so is identified again with
+all its spots at the field found (the catalogue chosen for that field, or the one given), and
+counts only if that identification passes too. The last stage searches the range (by default
+:data:`DEFAULT_FOV_RANGE_DEG`) with every spot and the configured budget, as one search would.
+
+The false-match bound is shared among the stages (a union bound): each search, and each
+identification again, is held to ``max_false_match_prob`` over the number of stages.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _starid
+from ._catalog import Catalog, PathLike, catalog_for, resolve_catalog
+from ._errors import InvalidInputError
+
+#: The range searched when neither the field of view nor a range is given (degrees).
+DEFAULT_FOV_RANGE_DEG = (8.0, 25.0)
+
+#: Brightest spots a quick stage searches.
+STAGE_SPOTS = 8
+
+#: Catalogue pairs a quick stage may visit per frame (about 0.1 s).
+STAGE_PAIRS = 100_000
+
+#: The quick stages: a band of fields of view (degrees) and the depth of the bundled catalogue
+#: searched in it (Hp), in the order tried. The brightest 8 spots of a field of 4-8 degrees are
+#: mostly stars to Hp 7-8; of one of 25-60 degrees, stars to about Hp 5.5.
+QUICK_STAGES: "tuple[tuple[tuple[float, float], float], ...]" = (
+    ((8.0, 25.0), 6.5),
+    ((4.0, 8.0), 7.0),
+    ((4.0, 8.0), 8.0),
+    ((25.0, 60.0), 5.5),
+)
+
+
+CatalogLike = Union[Catalog, PathLike, None]
+Stage = tuple[float, float, Catalog, Optional[int], Optional[int]]
+
+
+def bundled(depth: float) -> Catalog:
+    """The bundled catalogue to Hp ``depth``."""
+    return Catalog.default() if depth == 6.5 else Catalog.deep(depth)
+
+
+def stages(catalog: CatalogLike, fov_range: Optional[tuple[float, float]], size: tuple[float, float]) -> list[Stage]:
+    """The stages of a search: ``(lo, hi, catalogue, spots or None for all, pair budget or None
+    for the configured one)``. A range given keeps the quick stages within it; a catalogue
+    given is searched in every one."""
+    given = None if catalog is None else resolve_catalog(catalog)
+    lo, hi = (0.0, 180.0) if fov_range is None else fov_range
+    out: list[Stage] = []
+    seen: set[tuple[float, float, int]] = set()
+    for (blo, bhi), depth in QUICK_STAGES:
+        a, b = max(lo, blo), min(hi, bhi)
+        cat = given if given is not None else bundled(depth)
+        if a < b and (a, b, id(cat)) not in seen:
+            seen.add((a, b, id(cat)))
+            out.append((a, b, cat, STAGE_SPOTS, STAGE_PAIRS))
+    lo, hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
+    out.append((lo, hi, given if given is not None else catalog_for(hi, size), None, None))
+    return out
+
+
+def _brightest(xy: npt.NDArray[np.float64], mags: Optional[npt.NDArray[np.float64]], k: int) -> npt.NDArray[np.intp]:
+    """The ``k`` brightest spots (by magnitude, or the first ``k`` without magnitudes)."""
+    if mags is None:
+        return np.arange(min(k, len(xy)))
+    return np.argsort(mags, kind="stable")[:k]
+
+
+def _pick(
+    mags: Optional[npt.NDArray[np.float64]], picks: Optional[npt.NDArray[np.intp]]
+) -> Optional[npt.NDArray[np.float64]]:
+    return mags if mags is None or picks is None else mags[picks]
+
+
+def identify_unknown_field(
+    catalog: CatalogLike,
+    xys: Sequence[npt.NDArray[np.float64]],
+    mags: Sequence[Optional[npt.NDArray[np.float64]]],
+    size: tuple[float, float],
+    fov_range: Optional[tuple[float, float]],
+    cfg: Any,
+    threads: Optional[int],
+) -> list[Any]:
+    """Frames of one sensor with the field of view unknown, identified in stages (see the
+    module's notes); results in input order, each frame's last search where none identifies it.
+
+    A frame's ``time_s`` counts all its stages, and ``timeout_s`` binds them together: a frame
+    out of time searches no further and reports ``timeout``. Its false-match bound is that of
+    the identification that named it times the number of stages (a union bound)."""
+    if not cfg.verify:
+        raise InvalidInputError(
+            "verify=false (raw method answers) needs a known field of view: the focal length is fitted to verified matches"
+        )
+    plan = stages(catalog, fov_range, size)
+    share = cfg.replace(max_false_match_prob=cfg.max_false_match_prob / len(plan))
+    limit: Optional[float] = cfg.timeout_s
+    w, h = size
+    results: list[Any] = [None] * len(xys)
+    spent = [0.0] * len(xys)
+    todo = list(range(len(xys)))
+    for lo, hi, cat, spots, budget in plan:
+        if limit is not None:
+            todo = [i for i in todo if results[i] is None or spent[i] < limit]
+        if not todo:
+            break
+        stage_cfg = share if budget is None else share.replace(max_pairs_visited=min(budget, cfg.max_pairs_visited))
+        if limit is not None:
+            stage_cfg = stage_cfg.replace(timeout_s=max(limit - spent[i] for i in todo))
+        picks = [None if spots is None else _brightest(xys[i], mags[i], spots) for i in todo]
+        sub_xy = [xys[i] if p is None else xys[i][p] for i, p in zip(todo, picks)]
+        sub_m = [_pick(mags[i], p) for i, p in zip(todo, picks)]
+        found = _starid.identify_unknown_fov_many(cat._native, sub_xy, sub_m, w, h, lo, hi, stage_cfg, threads)
+        left = []
+        for i, p, res in zip(todo, picks, found):
+            spent[i] += res.time_s
+            if res.ok and p is not None and len(p) < len(xys[i]):
+                res = _again(catalog, cat, xys[i], mags[i], res, size, stage_cfg.replace(max_pairs_visited=cfg.max_pairs_visited))
+                spent[i] += res.time_s
+            results[i] = res
+            if not res.ok and res.status != "invalid_input":
+                left.append(i)
+        todo = left
+    out_of_time = set() if limit is None else {
+        i for i, r in enumerate(results) if not r.ok and r.status != "invalid_input" and spent[i] >= limit
+    }
+    return [
+        _restate(r, "timeout" if i in out_of_time else None, spent[i], len(plan)) for i, r in enumerate(results)
+    ]
+
+
+def _restate(res: Any, status: Optional[str], time_s: float, stages_tried: int) -> Any:
+    """``res`` with its status (unless None), the time of all its stages and the union bound."""
+    load, (state,) = res.__reduce__()
+    state = list(state)
+    if status is not None:
+        state[0] = status
+    state[5] = min(1.0, state[5] * stages_tried)
+    floats = list(state[7])
+    floats[2] = time_s
+    state[7] = floats
+    return load(tuple(state))
+
+
+def _again(
+    catalog: CatalogLike,
+    searched: Catalog,
+    xy: npt.NDArray[np.float64],
+    mags: Optional[npt.NDArray[np.float64]],
+    found: Any,
+    size: tuple[float, float],
+    cfg: Any,
+) -> Any:
+    """A frame found from its brightest spots, identified with all of them at the field found;
+    the focal length is then fitted over every matched star (Levenberg-Marquardt) and, where it
+    moves, the frame identified once more with it. The result carries the fit's uncertainty."""
+    fov = float(found.fov_deg)
+    cat = searched if catalog is not None else catalog_for(fov, size, mags, cfg.mag_offset)
+    res = _starid.identify(cat._native, xy, mags, _starid.Camera(size, fov), cfg)
+    if not res.ok or res.k1 != 0.0:
+        return res  # (a lens distortion the focal check found already has its focal length fitted with it)
+    matched = res.ids >= 0
+    rows = cat._native.rows_of(np.ascontiguousarray(res.ids[matched], dtype=np.int64))
+    radec = np.column_stack([cat.ra_deg[rows], cat.dec_deg[rows]])
+    fit = _starid.fit_pointing(
+        radec, np.ascontiguousarray(xy[matched]), size[0], size[1], res.focal_px, True, False, False, res.mirrored, None
+    )
+    if fit["converged"] and abs(fit["fov_deg"] / fov - 1) > 1e-6:
+        again = _starid.identify(cat._native, xy, mags, _starid.Camera(size, fit["fov_deg"]), cfg)
+        res = again if again.ok else res
+    load, (state,) = res.__reduce__()
+    state = list(state)
+    floats = list(state[7])
+    floats[5] = float(fit["focal_sigma_px"]) if fit["converged"] else float(found.focal_sigma_px)
+    state[7] = floats
+    return load(tuple(state))
