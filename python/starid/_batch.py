@@ -14,7 +14,7 @@ import numpy.typing as npt
 from . import _starid
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
-from ._unknown_field import identify_unknown_field
+from ._unknown_field import identify_rough_field, identify_unknown_field
 from ._identify import (
     _F64,
     _UNSET,
@@ -33,7 +33,7 @@ from ._identify import (
     _positive,
     _xy,
 )
-from .images import extract_centroids, identify_image
+from .images import extract_centroids, identify_image, rough_field_applies, settings_of
 
 T = TypeVar("T")
 
@@ -235,6 +235,14 @@ def _image_batch(
             [c.xy for c in cents], cat, fov_deg, None if kwargs.get("camera") is not None else sz,
             magnitudes=mags, threads=threads, **kwargs,
         )
+        # Images the field as given found nothing in: searched again over the tolerance's range.
+        rough = [k for k, r in enumerate(batch) if fov_deg is not None and rough_field_applies(r, fov_deg, kwargs)]
+        again = identify_rough_field(
+            cat, [cents[k].xy for k in rough], [mags[k] for k in rough], sz, float(fov_deg or 0.0), settings_of(kwargs),
+            threads,
+        )
+        for k, r in zip(rough, again):
+            batch[k] = batch[k] if r is None else r
         for i, r in zip(idx, batch):
             if r.status == "invalid_input":
                 r = _invalid(named(i, r.message), len(r.ids))

@@ -52,10 +52,12 @@ def bundled(depth: float) -> Catalog:
     return Catalog.default() if depth == 6.5 else Catalog.deep(depth)
 
 
-def stages(catalog: CatalogLike, fov_range: Optional[tuple[float, float]], size: tuple[float, float]) -> list[Stage]:
+def stages(
+    catalog: CatalogLike, fov_range: Optional[tuple[float, float]], size: tuple[float, float], full: bool = True
+) -> list[Stage]:
     """The stages of a search: ``(lo, hi, catalogue, spots or None for all, pair budget or None
     for the configured one)``. A range given keeps the quick stages within it; a catalogue
-    given is searched in every one."""
+    given is searched in every one; ``full=False`` leaves out the last, full search."""
     given = None if catalog is None else resolve_catalog(catalog)
     lo, hi = (0.0, 180.0) if fov_range is None else fov_range
     out: list[Stage] = []
@@ -66,8 +68,9 @@ def stages(catalog: CatalogLike, fov_range: Optional[tuple[float, float]], size:
         if a < b and (a, b, id(cat)) not in seen:
             seen.add((a, b, id(cat)))
             out.append((a, b, cat, STAGE_SPOTS, STAGE_PAIRS))
-    lo, hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
-    out.append((lo, hi, given if given is not None else catalog_for(hi, size), None, None))
+    if full:
+        lo, hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
+        out.append((lo, hi, given if given is not None else catalog_for(hi, size), None, None))
     return out
 
 
@@ -92,9 +95,11 @@ def identify_unknown_field(
     fov_range: Optional[tuple[float, float]],
     cfg: Any,
     threads: Optional[int],
+    full: bool = True,
 ) -> list[Any]:
     """Frames of one sensor with the field of view unknown, identified in stages (see the
-    module's notes); results in input order, each frame's last search where none identifies it.
+    module's notes); results in input order, each frame's last search where none identifies it
+    (``full=False``: the quick stages only).
 
     A frame's ``time_s`` counts all its stages, and ``timeout_s`` binds them together: a frame
     out of time searches no further and reports ``timeout``. Its false-match bound is that of
@@ -103,7 +108,9 @@ def identify_unknown_field(
         raise InvalidInputError(
             "verify=false (raw method answers) needs a known field of view: the focal length is fitted to verified matches"
         )
-    plan = stages(catalog, fov_range, size)
+    plan = stages(catalog, fov_range, size, full)
+    if not plan:
+        raise InvalidInputError(f"no band of fields of view meets {fov_range}")
     share = cfg.replace(max_false_match_prob=cfg.max_false_match_prob / len(plan))
     limit: Optional[float] = cfg.timeout_s
     w, h = size
@@ -138,6 +145,29 @@ def identify_unknown_field(
     return [
         _restate(r, "timeout" if i in out_of_time else None, spent[i], len(plan)) for i, r in enumerate(results)
     ]
+
+
+def identify_rough_field(
+    catalog: CatalogLike,
+    xys: Sequence[npt.NDArray[np.float64]],
+    mags: Sequence[Optional[npt.NDArray[np.float64]]],
+    size: tuple[float, float],
+    fov_deg: float,
+    cfg: Any,
+    threads: Optional[int],
+) -> list[Optional[Any]]:
+    """Frames that the field as given (``fov_deg`` within ``fov_tolerance``) did not identify,
+    searched again by the quick stages over the fields the tolerance allows: what ``fov_deg``
+    can be if it is ``fov_tolerance`` off either way. None for a frame they do not identify
+    either (or where the tolerance is 0)."""
+    tol = float(cfg.fov_tolerance)
+    if not 0.0 < tol < 1.0 or not xys:
+        return [None] * len(xys)
+    rng = (fov_deg / (1.0 + tol), min(fov_deg / (1.0 - tol), 179.0))
+    if not any(max(rng[0], lo) < min(rng[1], hi) for (lo, hi), _ in QUICK_STAGES):
+        return [None] * len(xys)
+    found = identify_unknown_field(catalog, xys, mags, size, rng, cfg, threads, full=False)
+    return [r if r.ok else None for r in found]
 
 
 def _restate(res: Any, status: Optional[str], time_s: float, stages_tried: int) -> Any:

@@ -26,7 +26,8 @@ from ._catalog import resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
 from ._files import checked_input
 from . import _identify as _identify_module
-from ._identify import CatalogLike, Frame, Identification, _camera, _flag, _frame, _whole
+from ._identify import CatalogLike, Frame, Identification, IdentifyConfig, _camera, _config, _flag, _frame, _whole
+from ._unknown_field import identify_rough_field
 
 __all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
 
@@ -317,7 +318,29 @@ def identify_image(
         res = identify(c.xy, catalog, magnitudes=mags, **kwargs)
     else:
         res = identify(c.xy, catalog, fov_deg, c.image_size, magnitudes=mags, **kwargs)
+        if fov_deg is not None and rough_field_applies(res, fov_deg, kwargs):
+            again = identify_rough_field(catalog, [c.xy], [mags], c.image_size, float(fov_deg), settings_of(kwargs), None)[0]
+            res = res if again is None else again
     return ImageIdentification(res._with_times(c.read_s, c.extract_s), c, kwargs.get("camera"))
+
+
+def rough_field_applies(res: Identification, fov_deg: Optional[float], kwargs: dict[str, Any]) -> bool:
+    """Whether an image's field as given found nothing it might find in the tolerance's range: a
+    lens's nominal focal length or a sensor's crop can put a photograph's field several percent
+    off, where the search about the given field no longer reaches (see ``identify_rough_field``)."""
+    return (
+        not res.ok
+        and res.status in ("no_match", "search_limit")
+        and fov_deg is not None
+        and kwargs.get("attitude_hint") is None
+        and kwargs.get("camera") is None
+    )
+
+
+def settings_of(kwargs: dict[str, Any]) -> Any:
+    """The native settings of an image call's keyword arguments."""
+    names = set(IdentifyConfig.names())
+    return _config(kwargs.get("config"), {k: v for k, v in kwargs.items() if k in names})
 
 
 def simulate_image(
