@@ -268,15 +268,15 @@ class Catalog:
         hit = _deep.get(limit)
         if hit is not None:
             return hit
-        with np.load(Path(__file__).parent / "data" / _DEEP_FILE) as z:
-            keep = z["mag_mmag"] <= round(limit * 1000)
-            cat = cls(
-                z["id"][keep].astype(np.int64),
-                z["ra_mas"][keep] / 3.6e6,
-                z["dec_mas"][keep] / 3.6e6,
-                z["mag_mmag"][keep] / 1000.0,
-                name=f"Hipparcos Hp<={limit:g} J2000 (bundled)",
-            )
+        z = _bundled_arrays()
+        keep = z["mag_mmag"] <= round(limit * 1000)
+        cat = cls(
+            z["id"][keep].astype(np.int64),
+            z["ra_mas"][keep] / 3.6e6,
+            z["dec_mas"][keep] / 3.6e6,
+            z["mag_mmag"][keep] / 1000.0,
+            name=f"Hipparcos Hp<={limit:g} J2000 (bundled)",
+        )
         if len(_deep) < 16:
             _deep[limit] = cat
         return cat
@@ -516,14 +516,19 @@ def _bundled_count(limit: float) -> int:
     """How many stars the bundled catalogue to ``limit`` holds (without building it)."""
     if limit == BUNDLED_DEPTHS[0]:
         return len(Catalog.default())
-    global _BUNDLED_MAGS
-    if _BUNDLED_MAGS is None:
+    return int(np.count_nonzero(_bundled_arrays()["mag_mmag"] <= round(limit * 1000)))
+
+
+def _bundled_arrays() -> "dict[str, npt.NDArray[Any]]":
+    """The bundled deep file's columns, read once."""
+    global _BUNDLED
+    if _BUNDLED is None:
         with np.load(Path(__file__).parent / "data" / _DEEP_FILE) as z:
-            _BUNDLED_MAGS = np.sort(z["mag_mmag"])
-    return int(np.searchsorted(_BUNDLED_MAGS, round(limit * 1000), side="right"))
+            _BUNDLED = {k: z[k] for k in ("id", "ra_mas", "dec_mas", "mag_mmag")}
+    return _BUNDLED
 
 
-_BUNDLED_MAGS: Optional[npt.NDArray[np.int16]] = None
+_BUNDLED: "Optional[dict[str, npt.NDArray[Any]]]" = None
 
 # The choice per field (a few camera geometries in a process): identify() pays a dict look-up.
 _FIELD_CHOICE: "dict[tuple[float, float, float], tuple[Catalog, tuple[float, ...]]]" = {}
