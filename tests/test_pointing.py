@@ -177,12 +177,13 @@ def test_the_stages_of_an_unknown_field() -> None:
     size = (1024.0, 768.0)
     plan = stages(None, None, size)
     assert [(lo, hi, spots) for lo, hi, _, spots, _ in plan] == [
-        (8.0, 25.0, 8), (4.0, 8.0, 8), (4.0, 8.0, 8), (25.0, 60.0, 8), (8.0, 25.0, None)
+        (8.0, 25.0, 8), (4.0, 8.0, 8), (4.0, 8.0, 8), (4.0, 8.0, 6), (25.0, 60.0, 8), (8.0, 25.0, None)
     ]
-    assert plan[1][2].name == "Hipparcos Hp<=7 J2000 (bundled)" and plan[3][2].name == "Hipparcos Hp<=5.5 J2000 (bundled)"
+    assert [c.name.split()[1] for _, _, c, _, _ in plan] == ["Hp<=6.5", "Hp<=6.5", "Hp<=7", "Hp<=8", "Hp<=5.5", "Hp<=6.5"]
     # A range given narrows the bands; the last stage searches all of it with every spot.
     narrowed = [(lo, hi) for lo, hi, *_ in stages(None, (5.0, 10.0), size)]
-    assert narrowed == [(8.0, 10.0), (5.0, 8.0), (5.0, 8.0), (5.0, 10.0)]
+    assert narrowed == [(8.0, 10.0), (5.0, 8.0), (5.0, 8.0), (5.0, 8.0), (5.0, 10.0)]
+    assert [(lo, hi) for lo, hi, *_ in stages(None, (5.0, 10.0), size, full=False)] == narrowed[:-1]
     # A catalogue given is searched in every band, once per band.
     own = starid.Catalog.default()
     plan = stages(own, None, size)

@@ -32,16 +32,18 @@ STAGE_SPOTS = 8
 #: Catalogue pairs a quick stage may visit per frame (about 0.1 s).
 STAGE_PAIRS = 100_000
 
-#: The quick stages: a band of fields of view (degrees) and the depth of the bundled catalogue
-#: searched in it (Hp), in the order tried. The brightest 8 spots of a field of 4-8 degrees are
-#: mostly stars to Hp 7-8; of one of 25-60 degrees, stars to about Hp 5.5.
-QUICK_STAGES: "tuple[tuple[tuple[float, float], float], ...]" = (
-    ((8.0, 25.0), 6.5),
-    ((4.0, 8.0), 7.0),
-    ((4.0, 8.0), 8.0),
-    ((25.0, 60.0), 5.5),
+#: The quick stages: a band of fields of view (degrees), the depth of the bundled catalogue
+#: searched in it (Hp) and how many of the brightest spots, in the order tried. The brightest
+#: spots of a field of 4-8 degrees are mostly stars to Hp 6.5-8 (the deeper the catalogue, the
+#: more catalogue pairs each triangle meets, so the fewer spots its budget covers); of one of
+#: 25-60 degrees, stars to about Hp 5.5.
+QUICK_STAGES: "tuple[tuple[tuple[float, float], float, int], ...]" = (
+    ((8.0, 25.0), 6.5, STAGE_SPOTS),
+    ((4.0, 8.0), 6.5, STAGE_SPOTS),
+    ((4.0, 8.0), 7.0, STAGE_SPOTS),
+    ((4.0, 8.0), 8.0, 6),
+    ((25.0, 60.0), 5.5, STAGE_SPOTS),
 )
-
 
 CatalogLike = Union[Catalog, PathLike, None]
 Stage = tuple[float, float, Catalog, Optional[int], Optional[int]]
@@ -61,13 +63,13 @@ def stages(
     given = None if catalog is None else resolve_catalog(catalog)
     lo, hi = (0.0, 180.0) if fov_range is None else fov_range
     out: list[Stage] = []
-    seen: set[tuple[float, float, int]] = set()
-    for (blo, bhi), depth in QUICK_STAGES:
+    seen: "set[tuple[float, float, int]]" = set()
+    for (blo, bhi), depth, spots in QUICK_STAGES:
         a, b = max(lo, blo), min(hi, bhi)
         cat = given if given is not None else bundled(depth)
         if a < b and (a, b, id(cat)) not in seen:
             seen.add((a, b, id(cat)))
-            out.append((a, b, cat, STAGE_SPOTS, STAGE_PAIRS))
+            out.append((a, b, cat, spots, STAGE_PAIRS))
     if full:
         lo, hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
         out.append((lo, hi, given if given is not None else catalog_for(hi, size), None, None))
@@ -164,7 +166,7 @@ def identify_rough_field(
     if not 0.0 < tol < 1.0 or not xys:
         return [None] * len(xys)
     rng = (fov_deg / (1.0 + tol), min(fov_deg / (1.0 - tol), 179.0))
-    if not any(max(rng[0], lo) < min(rng[1], hi) for (lo, hi), _ in QUICK_STAGES):
+    if not any(max(rng[0], lo) < min(rng[1], hi) for (lo, hi), _, _ in QUICK_STAGES):
         return [None] * len(xys)
     found = identify_unknown_field(catalog, xys, mags, size, rng, cfg, threads, full=False)
     return [r if r.ok else None for r in found]
