@@ -39,11 +39,12 @@ def parser() -> argparse.ArgumentParser:
     ident.add_argument("--example", action="store_true", help="identify the bundled example frame (12 deg, 512x512)")
     ident.add_argument("--fov-deg", type=float, help="full field of view across the image width, degrees (omit if unknown)")
     ident.add_argument("--fov-range-deg", type=float, nargs=2, metavar=("LO", "HI"),
-                       help="range searched when the field of view is unknown (default 8 25)")
+                       help="range searched when the field of view is unknown (default: 4 to 60, band by band)")
     ident.add_argument("--size", type=_size, help="sensor size WIDTHxHEIGHT in pixels, e.g. 512x512")
     ident.add_argument("--camera", type=Path, metavar="FILE",
                        help="the camera a calibration saved ('starid calibrate -o FILE'), instead of --fov-deg and --size")
-    ident.add_argument("--catalog", type=Path, help="catalogue file (CSV/TSV/text/.mat); default: bundled Hipparcos")
+    ident.add_argument("--catalog", type=Path,
+                       help="catalogue file (CSV/TSV/text/.mat); default: bundled Hipparcos, as deep as the field needs")
     ident.add_argument("--sigma-px", type=float, help="centroid noise, 1 sigma in pixels (default: adaptive)")
     ident.add_argument("--max-false-prob", type=float, default=1e-3, help="largest accepted false-match bound")
     ident.add_argument("--no-magnitudes", action="store_true", help="ignore a magnitude column")
