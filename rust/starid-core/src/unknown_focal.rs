@@ -28,7 +28,8 @@ use nalgebra::{Vector2, Vector3};
 use crate::error::{Error, Result};
 use crate::geometry::Camera;
 use crate::identify::{
-    binomial_tail, stop_now, validate_centroids, Identification, IdentifyConfig, Solver, Status,
+    binomial_tail, stop_now, validate_centroids, Call, Identification, IdentifyConfig, Solver,
+    Status,
 };
 use crate::kvector::AngleWindow;
 use crate::pointing::{focal_for_angle, refine_pointing, PointingFit, RefineOptions};
@@ -280,9 +281,14 @@ impl Solver {
                                 // alone cannot fit (see `identify::scale`), even where every
                                 // spot is named (the focal length then absorbs what it can).
                                 if config.focal_check && id.verified {
-                                    self.check_focal(
-                                        centroids, magnitudes, &camera, config, start, &mut id,
-                                    )?;
+                                    let call = Call {
+                                        centroids,
+                                        magnitudes,
+                                        camera: &camera,
+                                        config,
+                                        start,
+                                    };
+                                    self.check_focal(call, &mut id)?;
                                     if let Some(f) = id.focal_length_px {
                                         camera.focal_length_px = f;
                                         camera = camera.with_k1(id.k1.unwrap_or(camera.k1))?;

@@ -9,15 +9,8 @@ impl Solver {
     /// at most [`scale::FOCAL_RETRIES`] times, keeping a new solution that matches at least as
     /// many centroids (more, for a distortion error short of significance: see
     /// [`scale::K1_TRY_SIGMAS`]). Within the configured timeout only.
-    pub(crate) fn check_focal(
-        &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
-        start: Instant,
-        id: &mut Identification,
-    ) -> Result<()> {
+    pub(crate) fn check_focal(&self, call: Call<'_>, id: &mut Identification) -> Result<()> {
+        let (centroids, _, camera, config, start) = call.parts();
         let vectors = self.catalog.vectors();
         let mut cam = *camera;
         // The camera's errors that the solution kept shows (`id` under `cam`).
@@ -47,7 +40,7 @@ impl Solver {
                     };
                     trial = t;
                 }
-                let again = self.search_frame(centroids, magnitudes, &trial, config, start)?;
+                let again = self.search_frame(call.with_camera(&trial))?;
                 let enough = again.verified && again.matched >= id.matched + usize::from(strict);
                 if enough
                     && best
@@ -80,7 +73,7 @@ impl Solver {
             // field whose scale the corrections approached from one side): kept if it does.
             let in_time = config.timeout.is_none_or(|t| start.elapsed() < t);
             if in_time && id.matched < centroids.len() {
-                let again = self.search_frame(centroids, magnitudes, &cam, config, start)?;
+                let again = self.search_frame(call.with_camera(&cam))?;
                 if again.verified && again.matched > id.matched {
                     let (sigma, k1) = (id.focal_sigma_px, id.k1);
                     *id = again;

@@ -2,6 +2,47 @@
 
 use super::*;
 
+/// One frame's call: its spots and their magnitudes, the camera, the settings and the instant
+/// the call began (its time limit counts from it). What every search of the frame takes.
+#[derive(Clone, Copy)]
+pub(crate) struct Call<'a> {
+    pub(crate) centroids: &'a [[f64; 2]],
+    pub(crate) magnitudes: Option<&'a [f64]>,
+    pub(crate) camera: &'a Camera,
+    pub(crate) config: &'a IdentifyConfig,
+    pub(crate) start: Instant,
+}
+
+impl<'a> Call<'a> {
+    /// The same call with another camera (a focal length or distortion being tried).
+    pub(crate) fn with_camera<'b>(self, camera: &'b Camera) -> Call<'b>
+    where
+        'a: 'b,
+    {
+        Call { camera, ..self }
+    }
+
+    /// Its parts: centroids, magnitudes, camera, settings, start.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn parts(
+        self,
+    ) -> (
+        &'a [[f64; 2]],
+        Option<&'a [f64]>,
+        &'a Camera,
+        &'a IdentifyConfig,
+        Instant,
+    ) {
+        (
+            self.centroids,
+            self.magnitudes,
+            self.camera,
+            self.config,
+            self.start,
+        )
+    }
+}
+
 /// The centroids brightest first (by magnitude, ties by index), or as given without magnitudes.
 /// Into `order` (cleared first): a search keeps the buffer between calls.
 pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order: &mut Vec<usize>) {

@@ -53,15 +53,15 @@ use std::f64::consts::{PI, SQRT_2};
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::frame::{magnitude_window, prepare_frame, return_scratch, take_scratch};
+use super::frame::{magnitude_window, prepare_frame, return_scratch, take_scratch, Call};
 use super::search::FrameBuffers;
 
 use super::{
-    Identification, IdentifyConfig, Search, Solver, Verified, LONE_MIN_MATCHES,
-    MATCH_RADIUS_SIGMAS, SIGMA_LADDER_PX,
+    Identification, Search, Solver, Verified, LONE_MIN_MATCHES, MATCH_RADIUS_SIGMAS,
+    SIGMA_LADDER_PX,
 };
 use crate::attitude::{triad, wahba_from};
-use crate::geometry::{angle_between, Camera};
+use crate::geometry::angle_between;
 use crate::kvector::AngleWindow;
 
 /// Spots, brightest first, whose triples a lone-triangle search tries.
@@ -103,14 +103,8 @@ impl Solver {
     /// The lone-triangle test of a frame (see the module's notes): the three stars named where
     /// the bound allows, or `None`. Only for the camera as given (a search over focal lengths
     /// would have to count each), with `min_matches` at most 3.
-    pub(crate) fn search_lone(
-        &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
-        start: std::time::Instant,
-    ) -> Option<Identification> {
+    pub(crate) fn search_lone(&self, call: Call<'_>) -> Option<Identification> {
+        let (centroids, magnitudes, camera, config, start) = call.parts();
         let n = centroids.len();
         if n < 3 || config.min_matches > LONE_MIN_MATCHES {
             return None;

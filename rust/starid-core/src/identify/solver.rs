@@ -368,21 +368,28 @@ impl Solver {
         let start = Instant::now();
         config.validate()?;
         validate_centroids(centroids, magnitudes, camera)?;
-        let mut id = self.search_frame(centroids, magnitudes, camera, config, start)?;
+        let call = Call {
+            centroids,
+            magnitudes,
+            camera,
+            config,
+            start,
+        };
+        let mut id = self.search_frame(call)?;
         // Three stars among false spots: the triangle's own evidence, where its bound allows.
         let searched = matches!(id.status, Status::NoMatch | Status::SearchLimit);
         if lone && (searched || (id.status == Status::TooFewStars && centroids.len() == 3)) {
-            if let Some(found) = self.search_lone(centroids, magnitudes, camera, config, start) {
+            if let Some(found) = self.search_lone(call) {
                 id = found;
             }
         }
         // A solution that names every spot leaves no star out by a focal error worth a search.
         if config.focal_check && id.verified && id.matched < centroids.len() {
-            self.check_focal(centroids, magnitudes, camera, config, start, &mut id)?;
+            self.check_focal(call, &mut id)?;
         }
-        self.count_scale_freedom(&mut id, centroids, camera, config);
-        if self.field_in_doubt(&id, centroids, camera, config, start) {
-            self.search_within_tolerance(centroids, magnitudes, camera, config, start, &mut id)?;
+        self.count_scale_freedom(&mut id, call);
+        if self.field_in_doubt(&id, call) {
+            self.search_within_tolerance(call, &mut id)?;
         }
         id.noise_source = NoiseSource::of(config, &id);
         id.elapsed = start.elapsed();
@@ -390,14 +397,8 @@ impl Solver {
     }
 
     /// One search of a validated frame with the camera as given.
-    pub(crate) fn search_frame(
-        &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
-        start: Instant,
-    ) -> Result<Identification> {
+    pub(crate) fn search_frame(&self, call: Call<'_>) -> Result<Identification> {
+        let (centroids, magnitudes, camera, config, start) = call.parts();
         let n = centroids.len();
         if n < MIN_CENTROIDS {
             let mut id = Identification::unidentified(Status::TooFewStars, n, 0, start.elapsed());

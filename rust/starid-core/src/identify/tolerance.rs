@@ -38,13 +38,8 @@ impl Solver {
     /// number of scales the tolerance holds that the match radius tells apart (a union bound,
     /// as the search over the range has), and a solution that then fails the bound is
     /// withdrawn (the search within the tolerance may find it again, or another).
-    pub(crate) fn count_scale_freedom(
-        &self,
-        id: &mut Identification,
-        centroids: &[[f64; 2]],
-        camera: &Camera,
-        config: &IdentifyConfig,
-    ) {
+    pub(crate) fn count_scale_freedom(&self, id: &mut Identification, call: Call<'_>) {
+        let (centroids, _, camera, config, _) = call.parts();
         let n = centroids.len();
         let (shortest, longest) = config.focal_range_px(camera);
         let loose = id.centroid_sigma_px >= DOUBT_SIGMA_PX;
@@ -73,14 +68,8 @@ impl Solver {
     /// puts on the sensor go unmatched (a field a few percent off matches the centre and loses
     /// the edges; a star there may fall on another's spot). Only with a tolerance ([`IdentifyConfig::focal_range_px`]), and time
     /// left.
-    pub(crate) fn field_in_doubt(
-        &self,
-        id: &Identification,
-        centroids: &[[f64; 2]],
-        camera: &Camera,
-        config: &IdentifyConfig,
-        start: Instant,
-    ) -> bool {
+    pub(crate) fn field_in_doubt(&self, id: &Identification, call: Call<'_>) -> bool {
+        let (centroids, _, camera, config, start) = call.parts();
         let (shortest, longest) = config.focal_range_px(camera);
         let n = centroids.len();
         if shortest >= longest || n < crate::identify::MIN_CENTROIDS {
@@ -220,13 +209,10 @@ impl Solver {
     /// solution where it names more spots, or nearly as many with far tighter residuals.
     pub(crate) fn search_within_tolerance(
         &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
-        start: Instant,
+        call: Call<'_>,
         id: &mut Identification,
     ) -> Result<()> {
+        let (centroids, magnitudes, camera, config, _) = call.parts();
         let (shortest, longest) = config.focal_range_px(camera);
         // A range a few percent wide needs a fraction of the work of a field unknown across
         // 8°–25°, and most frames searched here (hostile ones, a few stars among false spots)
@@ -247,9 +233,7 @@ impl Solver {
         )?;
         let mut found = found;
         if !found.identification.verified {
-            if let Some(grid) =
-                self.search_scale_grid(centroids, magnitudes, camera, config, start, &found)?
-            {
+            if let Some(grid) = self.search_scale_grid(call, &found)? {
                 found = grid;
             }
         }
@@ -306,13 +290,10 @@ impl Solver {
     /// result adds to. The frame's time limit, counted from `start`, holds for the whole grid.
     fn search_scale_grid(
         &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
-        start: Instant,
+        call: Call<'_>,
         before: &crate::unknown_focal::FocalIdentification,
     ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
+        let (centroids, magnitudes, camera, config, start) = call.parts();
         let (shortest, longest) = config.focal_range_px(camera);
         let f0 = camera.focal_length_px;
         let half_diagonal = 0.5 * camera.width_px.hypot(camera.height_px);
