@@ -130,17 +130,7 @@ impl Solver {
         let stride = n.min(LONE_SEARCH_STARS);
         scratch.forget_side_ranges(stride);
         scratch.side_cache.reset(stride);
-        let mut search = Search::new(
-            self,
-            camera,
-            config,
-            [obs, obs_mirrored],
-            magnitudes,
-            order,
-            scratch,
-        );
-        search.stride = stride;
-        search.deadline = config.timeout.map(|t| start + t);
+        let mut search = Search::of_call(self, call, [obs, obs_mirrored], order, scratch, stride);
         search.gate = windows.as_deref();
         let found = search.lone_triangle(sigma_px, offset);
         let hypotheses = search.hypotheses;

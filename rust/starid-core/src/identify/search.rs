@@ -124,6 +124,30 @@ pub(super) struct Search<'a> {
 impl<'a> Search<'a> {
     /// A search over the whole pair index with no gate, hint or deadline: the passes set
     /// what they need.
+    /// A search of `call`'s frame over its first `stride` spots (brightest first), within the
+    /// call's time limit.
+    pub(super) fn of_call(
+        solver: &'a Solver,
+        call: Call<'a>,
+        obs: [&'a [Vector3<f64>]; 2],
+        order: &'a [usize],
+        scratch: Box<Scratch>,
+        stride: usize,
+    ) -> Self {
+        let mut search = Self::new(
+            solver,
+            call.camera,
+            call.config,
+            obs,
+            call.magnitudes,
+            order,
+            scratch,
+        );
+        search.stride = stride;
+        search.deadline = call.config.timeout.map(|t| call.start + t);
+        search
+    }
+
     pub(super) fn new(
         solver: &'a Solver,
         camera: &'a Camera,

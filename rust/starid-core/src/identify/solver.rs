@@ -444,17 +444,7 @@ impl Solver {
             .unwrap_or(3)
             .min(n);
         scratch.forget_angles(stride);
-        let mut search = Search::new(
-            self,
-            camera,
-            config,
-            [obs, obs_mirrored],
-            magnitudes,
-            order,
-            scratch,
-        );
-        search.stride = stride;
-        search.deadline = config.timeout.map(|t| start + t);
+        let mut search = Search::of_call(self, call, [obs, obs_mirrored], order, scratch, stride);
         let mut status = Status::NoMatch;
         // Set when the gated passes spent the budget: only the closing pass runs then.
         let mut closing_only = false;
