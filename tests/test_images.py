@@ -400,3 +400,22 @@ def test_a_photographs_field_given_several_percent_off_is_found(off: float) -> N
     # A batch of images with the field given off does the same; 20 % off names nothing.
     assert all(r.ok for r in starid.identify_many([img, img], fov_deg=6.076 * (1 + off)))
     assert not starid.identify(img, fov_deg=6.076 * 1.2).ok
+
+
+def test_extracted_centroids_are_identified_as_they_are() -> None:
+    # The Centroids extract_centroids returns carry the sensor size and instrument magnitudes:
+    # identify takes them as the image itself would be identified, alone or in a batch.
+    img, f = starid.simulate_image(fov_deg=10.0, image_size=(800, 600), seed=3, mag_limit=6.5)
+    c = starid.extract_centroids(img)
+    direct = starid.identify(img, fov_deg=10.0)
+    res = starid.identify(c, fov_deg=10.0)
+    assert res.ok and np.array_equal(res.ids, direct.ids) and res.image_size == (800.0, 600.0)
+    unknown = starid.identify(c)
+    assert unknown.ok and abs(unknown.fov_deg - 10.0) < 0.02
+    batch = starid.identify_many([c, c], fov_deg=10.0)
+    assert all(np.array_equal(r.ids, res.ids) for r in batch)
+    with pytest.raises(starid.InvalidInputError, match="magnitudes"):
+        starid.identify(c, fov_deg=10.0, magnitudes=c.magnitudes)
+    other = starid.extract_centroids(starid.simulate_image(fov_deg=10.0, image_size=(640, 480), seed=3)[0])
+    with pytest.raises(starid.InvalidInputError, match="sizes"):
+        starid.identify_many([c, other], fov_deg=10.0)

@@ -13,6 +13,7 @@ import numpy.typing as npt
 
 from . import _starid
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+from ._centroids import Centroids
 from ._errors import InvalidInputError
 from ._unknown_field import identify_rough_field, identify_unknown_field
 from ._identify import (
@@ -90,6 +91,19 @@ def identify_many(
     >>> [r.ok for r in starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512))]
     [True, True, True, True]
     """
+    if isinstance(frames, Sequence) and len(frames) > 0 and all(isinstance(f, Centroids) for f in frames):
+        # Spots extracted by starid: positions, instrument magnitudes and the sensor size.
+        if magnitudes is not None:
+            raise InvalidInputError("Centroids carry their magnitudes: do not pass magnitudes=")
+        cents = cast(Sequence[Centroids], frames)
+        if len({c.image_size for c in cents}) > 1:
+            raise InvalidInputError("a batch is one camera: these Centroids come from images of different sizes")
+        if image_size is None and camera is None:
+            image_size = cents[0].image_size
+        if mag_offset is _UNSET and config is None:
+            mag_offset = None  # instrument magnitudes: their zero point is unknown
+        magnitudes = [c.magnitudes if np.isfinite(c.magnitudes).all() else None for c in cents]
+        frames = [c.xy for c in cents]
     if mag_offset is not _UNSET:
         settings["mag_offset"] = mag_offset
     if isinstance(frames, (str, bytes, os.PathLike, Mapping)) or not isinstance(frames, (Sequence, np.ndarray)):

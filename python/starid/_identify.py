@@ -15,6 +15,7 @@ import numpy.typing as npt
 from . import _starid
 from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+from ._centroids import Centroids
 from ._unknown_field import DEFAULT_FOV_RANGE_DEG, identify_unknown_field
 
 __all__ = ["DEFAULT_FOV_RANGE_DEG", "Frame", "Identification", "identify", "simulate"]
@@ -302,10 +303,14 @@ def identify(
 
     Parameters
     ----------
-    xy : array_like, shape (N, 2)
-        Pixel centroids: x to the right, y down, origin at the sensor's top-left corner.
+    xy : array_like, shape (N, 2), Centroids or image
+        Pixel centroids: x to the right, y down, origin at the sensor's top-left corner. The
+        :class:`~starid.images.Centroids` that :func:`~starid.extract_centroids` returns bring
+        their instrument magnitudes (zero point unknown) and the image's size; an image (an
+        array or a file) is extracted first.
     catalog : Catalog, path or None
-        The star catalogue; None uses the bundled Hipparcos catalogue (Hp <= 6.5).
+        The star catalogue; None chooses a bundled Hipparcos catalogue as deep as the field
+        (and the spots' magnitudes) need: see :func:`~starid.catalog_for`.
     fov_deg : float, optional
         Full field of view across the image width, degrees: an estimate, good to
         ``fov_tolerance`` (10 % by default; the field found is ``fov_deg`` on the result). When
@@ -439,13 +444,23 @@ def identify(
     >>> res.ok, bool((res.ids == frame.true_ids).all())
     (True, True)
 
-    With the field of view unknown (searched in 8 to 25 degrees):
+    With the field of view unknown (searched over 4 to 60 degrees, band by band):
 
     >>> frame = starid.simulate(fov_deg=17.3, image_size=(1024, 1024), seed=8, noise_px=0.2)
     >>> res = starid.identify(frame.xy, image_size=(1024, 1024))
     >>> res.ok, round(res.fov_deg, 2)
     (True, 17.3)
     """
+    if isinstance(xy, Centroids):
+        # Spots extracted by starid: their positions, instrument magnitudes and sensor size.
+        if magnitudes is not None:
+            raise InvalidInputError("Centroids carry their magnitudes: do not pass magnitudes=")
+        if image_size is None and camera is None:
+            image_size = xy.image_size
+        if mag_offset is _UNSET and config is None:
+            mag_offset = None  # instrument magnitudes: their zero point is unknown
+        magnitudes = xy.magnitudes if np.isfinite(xy.magnitudes).all() else None
+        xy = xy.xy
     if pixel_origin != "corner":
         xy = _from_pixel_origin(xy, pixel_origin)
     # The common call (float64 arrays, a known camera) in one native step; any other form comes
