@@ -211,6 +211,17 @@ def test_time_limit_binds_one_long_unknown_field_call() -> None:
     assert res.status == "timeout" and time.perf_counter() - t0 < 1.2
 
 
+def test_a_given_field_whose_time_runs_out_says_timeout() -> None:
+    # Nothing matches at the field as given, and the search within its tolerance runs out of
+    # time: the status says so, not "no_match".
+    # (The whole search takes about 0.15 s here; the index is built before the clock starts.)
+    spots = np.random.default_rng(5).uniform(0, 512, (10_000, 2))
+    starid.identify(spots[:50], fov_deg=12.0, image_size=(512, 512))
+    res = starid.identify(spots, fov_deg=12.0, image_size=(512, 512), timeout_s=0.02)
+    assert res.status == "timeout" and not res.ok
+    assert starid.identify(spots, fov_deg=12.0, image_size=(512, 512)).status == "no_match"
+
+
 def test_a_numpy_scalar_hint_is_one_hint_for_the_batch() -> None:
     frames = [starid.simulate(seed=s, attitude_deg=(83.0, -5.0, 0.0), noise_px=0.1).xy for s in range(3)]
     res = starid.identify_many(frames, fov_deg=12.0, image_size=(512, 512), attitude_hint=(np.int64(83), -5, 0))

@@ -391,6 +391,12 @@ impl Solver {
         if self.field_in_doubt(&id, call) {
             self.search_within_tolerance(call, &mut id)?;
         }
+        // A frame still unnamed when its time ran out says so, not that nothing matched (the
+        // searches within the tolerance stop at the time limit, or are not begun after it).
+        let spent = config.timeout.is_some_and(|t| start.elapsed() >= t);
+        if spent && matches!(id.status, Status::NoMatch | Status::SearchLimit) {
+            id.status = Status::Timeout;
+        }
         id.noise_source = NoiseSource::of(config, &id);
         id.elapsed = start.elapsed();
         Ok(id)
