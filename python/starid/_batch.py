@@ -134,7 +134,8 @@ def identify_many(
         raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
     nthreads = None if threads is None else int(threads)
     cfg = _config(config, settings)
-    cat = resolve_catalog_for(catalog, cam, _pooled(magnitudes), cfg.mag_offset)
+    # (Chosen for the field and the batch's magnitudes only where nothing was given.)
+    cat = resolve_catalog_for(catalog, cam, _pooled(magnitudes) if catalog is None else None, cfg.mag_offset)
     if cam is not None and attitude_hint is None and type(frames) is list:
         # The common batch (lists of float64 arrays) is read by the core without a Python loop;
         # any other form comes back NotImplemented and is converted below, frame by frame.

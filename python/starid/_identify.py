@@ -514,12 +514,12 @@ def identify(
     a = _xy(xy)
     m = _magnitudes(magnitudes, a.shape[0])
     cfg = _config(config, settings)
-    cat = resolve_catalog_for(catalog, cam, m, cfg.mag_offset)
     if cam is None:
         size = _image_size(image_size)
         rng = None if fov_range_deg is None else _fov_range(fov_range_deg)
         res = identify_unknown_field(catalog, [a], [m], size, rng, cfg, None)[0]
         return res  # type: ignore[no-any-return]  # an Identification
+    cat = resolve_catalog_for(catalog, cam, m, cfg.mag_offset)
     if fov_range_deg is not None:
         raise InvalidInputError("give fov_deg (a known field of view) or fov_range_deg (an unknown one), not both")
     if attitude_hint is not None:

@@ -145,7 +145,7 @@ def identify_unknown_field(
         i for i, r in enumerate(results) if not r.ok and r.status != "invalid_input" and spent[i] >= limit
     }
     return [
-        _restate(r, "timeout" if i in out_of_time else None, spent[i], len(plan)) for i, r in enumerate(results)
+        r._restated("timeout" if i in out_of_time else None, spent[i], float(len(plan))) for i, r in enumerate(results)
     ]
 
 
@@ -170,19 +170,6 @@ def identify_rough_field(
         return [None] * len(xys)
     found = identify_unknown_field(catalog, xys, mags, size, rng, cfg, threads, full=False)
     return [r if r.ok else None for r in found]
-
-
-def _restate(res: Any, status: Optional[str], time_s: float, stages_tried: int) -> Any:
-    """``res`` with its status (unless None), the time of all its stages and the union bound."""
-    load, (state,) = res.__reduce__()
-    state = list(state)
-    if status is not None:
-        state[0] = status
-    state[5] = min(1.0, state[5] * stages_tried)
-    floats = list(state[7])
-    floats[2] = time_s
-    state[7] = floats
-    return load(tuple(state))
 
 
 def _again(
@@ -211,9 +198,5 @@ def _again(
     if fit["converged"] and abs(fit["fov_deg"] / fov - 1) > 1e-6:
         again = _starid.identify(cat._native, xy, mags, _starid.Camera(size, fit["fov_deg"]), cfg)
         res = again if again.ok else res
-    load, (state,) = res.__reduce__()
-    state = list(state)
-    floats = list(state[7])
-    floats[5] = float(fit["focal_sigma_px"]) if fit["converged"] else float(found.focal_sigma_px)
-    state[7] = floats
-    return load(tuple(state))
+    sigma = float(fit["focal_sigma_px"]) if fit["converged"] else float(found.focal_sigma_px)
+    return res._restated(None, res.time_s, 1.0, sigma)

@@ -603,6 +603,29 @@ impl PyIdentification {
         Self::from_state(state)
     }
 
+    /// This result as a search made of several stages reports it: another status (unless
+    /// None), the time of all the stages, the false-match bound times ``bound_factor`` (a union
+    /// bound, at most 1) and the focal length's uncertainty (unless None).
+    #[pyo3(signature = (status, time_s, bound_factor, focal_sigma_px=None))]
+    fn _restated(
+        &self,
+        status: Option<String>,
+        time_s: f64,
+        bound_factor: f64,
+        focal_sigma_px: Option<f64>,
+    ) -> PyResult<Self> {
+        let mut state = self.state();
+        if let Some(s) = status {
+            state.0 = s;
+        }
+        state.5 = (state.5 * bound_factor).min(1.0);
+        state.7[2] = time_s;
+        if let Some(f) = focal_sigma_px {
+            state.7[5] = f;
+        }
+        Self::from_state(state)
+    }
+
     /// Plain Python values (lists, floats, None for NaN), ready for `json.dumps`.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
