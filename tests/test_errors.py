@@ -44,6 +44,16 @@ def test_bad_fov_range(rng: object) -> None:
         starid.identify(GOOD, image_size=(512, 512), fov_range_deg=rng)
 
 
+@pytest.mark.parametrize("fov_range", [None, (5.0, 10.0)])
+def test_malformed_centroids_of_an_unknown_field_raise(fov_range: object) -> None:
+    # One frame's malformed input is a typed error naming it, as with the field given; in a
+    # batch it is that frame's status.
+    bad = np.full((5, 2), np.nan)
+    with pytest.raises(starid.InvalidInputError, match="^centroid 0 has a non-finite coordinate"):
+        starid.identify(bad, image_size=(512, 512), fov_range_deg=fov_range)
+    assert [r.status for r in starid.identify_many([bad], image_size=(512, 512))] == ["invalid_input"]
+
+
 def test_fov_and_fov_range_together() -> None:
     with pytest.raises(ValueError, match="not both"):
         starid.identify(GOOD, fov_deg=12.0, image_size=(512, 512), fov_range_deg=(8.0, 20.0))

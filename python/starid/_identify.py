@@ -518,6 +518,8 @@ def identify(
         size = _image_size(image_size)
         rng = None if fov_range_deg is None else _fov_range(fov_range_deg)
         res = identify_unknown_field(catalog, [a], [m], size, rng, cfg, None)[0]
+        if res.status == "invalid_input":  # one frame's malformed input is an error, not a status
+            raise InvalidInputError(str(res.message).removeprefix("frame 0: "))
         return res  # type: ignore[no-any-return]  # an Identification
     cat = resolve_catalog_for(catalog, cam, m, cfg.mag_offset)
     if fov_range_deg is not None:
