@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 from hypothesis import settings
 
-import starid
+# The tests keep their pair indexes in a directory of their own, not the user's cache.
+_INDEX_CACHE = tempfile.TemporaryDirectory(prefix="starid-test-indexes-")
+os.environ["STARID_CACHE_DIR"] = _INDEX_CACHE.name
+
+import starid  # noqa: E402
 
 settings.register_profile("dev", max_examples=25, deadline=None, print_blob=True)
 settings.register_profile("ci", max_examples=50, deadline=None, print_blob=True, derandomize=True)

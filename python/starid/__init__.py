@@ -16,6 +16,7 @@ from . import guide, plot, pointing, tracking, wcs
 from .calibration import calibrate, load_camera, save_camera
 from ._catalog import BUNDLED_DEPTHS, MAX_STARS_PER_FIELD, MIN_STARS_PER_FIELD, Catalog, catalog_for
 from ._errors import CatalogError, InvalidInputError, StaridError
+from ._index_cache import clear_index_cache, index_cache_dir, index_cache_files, set_index_cache_dir
 from ._batch import identify_many
 from ._identify import (
     DEFAULT_FOV_RANGE_DEG,
@@ -44,6 +45,10 @@ __all__ = [
     "MAX_STARS_PER_FIELD",
     "BUNDLED_DEPTHS",
     "catalog_for",
+    "clear_index_cache",
+    "index_cache_dir",
+    "index_cache_files",
+    "set_index_cache_dir",
     "Centroids",
     "ImageIdentification",
     "Catalog",

@@ -335,7 +335,8 @@ class Catalog:
         use; 0 until then, or built now with ``magnitude_index=True``, taking
         ``magnitude_index_build_time_s``), ``seed_tables_bytes`` (the source documents'
         methods' tables, 0 until one of those methods runs; see :meth:`method_index`) and their
-        sum ``memory_bytes``.
+        sum ``memory_bytes``. ``index_file`` is the file in the index cache directory the pair
+        indexes were read from or written to (see :func:`starid.set_index_cache_dir`), or None.
         """
         from ._identify import _camera
 

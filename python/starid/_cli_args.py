@@ -100,6 +100,11 @@ def parser() -> argparse.ArgumentParser:
     info.add_argument("catalog", type=Path, nargs="?", help="catalogue file; default: bundled Hipparcos")
     info.add_argument("--fov-deg", type=float, default=12.0)
     info.add_argument("--size", type=_size, default=(512.0, 512.0))
+    info.add_argument(
+        "--clear-index-cache",
+        action="store_true",
+        help="delete the pair-index files kept on disk (STARID_CACHE_DIR, else the user's cache directory) first",
+    )
 
     bore = sub.add_parser(
         "boresight",

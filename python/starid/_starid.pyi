@@ -47,6 +47,8 @@ __all__ = [
     "simulate",
     "simulate_scene",
     "simulate_sequence",
+    "set_index_cache_dir",
+    "index_cache_dir",
 ]
 
 __version__: str
@@ -587,3 +589,5 @@ def simulate_image(
     bits: int = 16,
     clip_background: bool = False,
 ) -> tuple[npt.NDArray[np.float32], dict[str, Any]]: ...
+def set_index_cache_dir(path: str | PathLike[str] | None) -> None: ...
+def index_cache_dir() -> PathLike[str] | None: ...

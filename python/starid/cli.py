@@ -20,6 +20,7 @@ from ._identify import METHODS, Camera, Identification, identify, simulate
 from ._errors import InvalidInputError
 from ._cli_args import parser
 from ._files import refuse_overwriting, write_atomically
+from ._index_cache import clear_index_cache, index_cache_dir, index_cache_files
 from .images import extract_centroids
 from .starlist import StarList, read_star_list
 
@@ -460,13 +461,21 @@ def _simulate_image(args: argparse.Namespace) -> int:
 
 
 def _catalog_info(args: argparse.Namespace) -> int:
+    if args.clear_index_cache:
+        print(f"deleted {clear_index_cache()} index file(s) from {index_cache_dir()}")
     cat: Catalog = resolve_catalog(args.catalog)
     print(repr(cat))
     info = cat.index_info(args.fov_deg, args.size)
     print(
         f"pair index for {args.fov_deg:g} deg on {args.size[0]:g}x{args.size[1]:g} px: {info['pairs']} pairs "
         f"up to {info['max_angle_deg']:.2f} deg, {info['memory_bytes'] / 1e6:.2f} MB, "
-        f"built in {info['build_time_s'] * 1e3:.1f} ms"
+        f"built or read in {info['build_time_s'] * 1e3:.1f} ms"
+    )
+    files = index_cache_files()
+    where = f"index file {info['index_file']}" if info["index_file"] else "not kept on disk"
+    print(
+        f"{where}; index cache {index_cache_dir() or 'off'}: {len(files)} file(s), "
+        f"{sum(size for _, size in files) / 1e6:.1f} MB"
     )
     return 0
 

@@ -37,8 +37,8 @@ pub const MAX_PAIRS: usize = 100_000_000;
 pub const NARROW_PAIR_STARS: usize = 1 << 16;
 
 /// Catalogue indices of each pair, `[lower, higher]`: 16-bit when the catalogue allows.
-#[derive(Debug, Clone)]
-enum PairStore {
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum PairStore {
     Narrow(Vec<[u16; 2]>),
     Wide(Vec<[u32; 2]>),
 }
@@ -146,7 +146,7 @@ impl AngleWindow {
 }
 
 /// Sorted catalogue pairs with their k-vector.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PairIndex {
     max_angle_rad: f64,
     /// How many pairs.
@@ -481,6 +481,53 @@ impl PairIndex {
             PairStore::Wide(p) => p.len() * 8,
         };
         pair_bytes + self.k.len() * 4
+    }
+
+    /// What an index file keeps: the pairs, the k-vector, its slope and intercept.
+    pub(crate) fn stored_parts(&self) -> (&PairStore, &[u32], f64, f64) {
+        (&self.pairs, &self.k, self.slope, self.intercept)
+    }
+
+    /// An index from the parts [`PairIndex::stored_parts`] gave, for a catalogue of `n_stars`
+    /// stars; `None` unless they are consistent (indices in the catalogue, a k-vector that
+    /// rises to the number of pairs, the storage width the catalogue implies).
+    pub(crate) fn from_stored_parts(
+        max_angle_rad: f64,
+        pairs: PairStore,
+        k: Vec<u32>,
+        [slope, intercept]: [f64; 2],
+        n_stars: usize,
+    ) -> Option<Self> {
+        let len = match &pairs {
+            PairStore::Narrow(p) if n_stars <= NARROW_PAIR_STARS => {
+                let n = n_stars as u32;
+                p.iter()
+                    .all(|&[a, b]| a < b && u32::from(b) < n)
+                    .then_some(p.len())?
+            }
+            PairStore::Wide(p) if n_stars > NARROW_PAIR_STARS => {
+                let n = u32::try_from(n_stars).ok()?;
+                p.iter().all(|&[a, b]| a < b && b < n).then_some(p.len())?
+            }
+            _ => return None,
+        };
+        let sound = max_angle_rad.is_finite()
+            && max_angle_rad > 0.0
+            && max_angle_rad < std::f64::consts::PI
+            && slope.is_finite()
+            && slope > 0.0
+            && intercept.is_finite()
+            && k.len() >= 2
+            && k.windows(2).all(|w| w[0] <= w[1])
+            && k.last().is_some_and(|&n| n as usize == len);
+        sound.then_some(Self {
+            max_angle_rad,
+            len,
+            pairs,
+            k,
+            slope,
+            intercept,
+        })
     }
 
     /// Heap memory in bytes of an index holding `n_pairs` pairs of a catalogue of `n_stars`

@@ -1,7 +1,7 @@
 //! `Catalog`: the native catalogue, with a cache of the pair indexes built for it.
 
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
@@ -13,6 +13,27 @@ use starid_core::{Catalog, Solver};
 use crate::convert;
 use crate::errors::PyStaridError;
 use crate::run_core;
+
+/// The directory pair indexes are kept in across processes; `None` keeps none.
+static INDEX_CACHE_DIR: RwLock<Option<PathBuf>> = RwLock::new(None);
+
+/// Keep pair indexes in `path` from now on (`None`: keep none; indexes already in memory stay).
+#[pyfunction]
+#[pyo3(signature = (path))]
+pub fn set_index_cache_dir(path: Option<PathBuf>) {
+    *INDEX_CACHE_DIR
+        .write()
+        .unwrap_or_else(std::sync::PoisonError::into_inner) = path;
+}
+
+/// The directory pair indexes are kept in, or None.
+#[pyfunction]
+pub fn index_cache_dir() -> Option<PathBuf> {
+    INDEX_CACHE_DIR
+        .read()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .clone()
+}
 
 /// A star catalogue: ids, ICRS directions and magnitudes.
 #[pyclass(frozen, name = "Catalog", module = "starid._starid")]
@@ -42,17 +63,21 @@ impl PyCatalog {
             .clone()
     }
 
-    /// A solver whose pair index covers `max_angle_rad`, built once (with the GIL released).
-    /// Ctrl-C during a build raises KeyboardInterrupt at once; the build goes on in the
-    /// background and is kept for the next call.
+    /// A solver whose pair index covers `max_angle_rad`, built once (with the GIL released),
+    /// or read from the index cache directory, where a new one is kept. Ctrl-C during a build
+    /// raises KeyboardInterrupt at once; the build goes on in the background and is kept for
+    /// the next call.
     pub fn solver(&self, py: Python<'_>, max_angle_rad: f64) -> PyResult<Arc<Solver>> {
         // A built one without releasing the GIL (a look-up); building takes long.
         match self.solvers.cached(max_angle_rad) {
             Some(s) => Ok(s),
             None => {
                 let cache = self.solvers.clone();
-                crate::batch::detached(py, move || cache.solver(max_angle_rad))?
-                    .map_err(|e| PyStaridError(e).into())
+                let dir = index_cache_dir();
+                crate::batch::detached(py, move || {
+                    cache.solver_stored(max_angle_rad, dir.as_deref())
+                })?
+                .map_err(|e| PyStaridError(e).into())
             }
         }
     }
@@ -215,6 +240,7 @@ impl PyCatalog {
         d.set_item("seed_tables_bytes", s.seed_tables_bytes())?;
         d.set_item("magnitude_index_build_time_s", mag_build_s)?;
         d.set_item("build_time_s", s.build_time().as_secs_f64())?;
+        d.set_item("index_file", s.index_file())?;
         Ok(d)
     }
 

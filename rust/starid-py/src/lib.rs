@@ -631,6 +631,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tracking::simulate_sequence, m)?)?;
     m.add_function(wrap_pyfunction!(tracking::quaternion_from_radec_roll, m)?)?;
     m.add_function(wrap_pyfunction!(outcome::result_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(catalog::set_index_cache_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(catalog::index_cache_dir, m)?)?;
     m.add_function(wrap_pyfunction!(images::extract_centroids, m)?)?;
     m.add_function(wrap_pyfunction!(images::simulate_image, m)?)?;
     m.add_class::<PyIdentifyConfig>()?;

@@ -1,9 +1,11 @@
 //! The solvers built for one catalogue, shared by every call: each pair index is built once,
 //! whichever thread asks first, and reused for every field of view it suits.
 
-use std::sync::{Arc, Mutex};
+use std::path::Path;
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
 
-use super::Solver;
+use super::{stored, PairIndexes, Solver};
 use crate::catalog::Catalog;
 use crate::error::Result;
 
@@ -33,6 +35,8 @@ pub struct SolverCache {
     solvers: Mutex<Vec<Arc<Solver>>>,
     /// Held while an index is built, so that threads asking at once build it once.
     building: Mutex<()>,
+    /// The catalogue's content key (see [`super::catalog_key`]), computed on first use.
+    key: OnceLock<u64>,
 }
 
 impl SolverCache {
@@ -49,6 +53,7 @@ impl SolverCache {
             catalog,
             solvers: Mutex::new(Vec::new()),
             building: Mutex::new(()),
+            key: OnceLock::new(),
         }
     }
 
@@ -131,6 +136,32 @@ impl SolverCache {
     /// assert!(s.pair_index().max_angle_rad() >= 0.2);
     /// ```
     pub fn solver(&self, max_angle_rad: f64) -> Result<Arc<Solver>> {
+        self.solver_stored(max_angle_rad, None)
+    }
+
+    /// As [`SolverCache::solver`], keeping pair indexes on disk in `dir`: an index not in
+    /// memory is read from an index file of this catalogue there when one suits, and one built
+    /// is written there (when it has at least [`super::MIN_STORED_PAIRS`] pairs), so that the
+    /// next process reads it instead of building it. A file that does not read back whole is
+    /// rebuilt and replaced; a directory that cannot be written only means nothing is kept.
+    ///
+    /// # Errors
+    /// As [`Solver::new`].
+    ///
+    /// # Example
+    /// ```
+    /// use std::sync::Arc;
+    /// use starid_core::identify::SolverCache;
+    /// let dir = std::env::temp_dir().join(format!("starid-doc-{}", std::process::id()));
+    /// let cat = Arc::new(starid_core::simulate::random_catalog(8000, 1.0, 6.0, 1).unwrap());
+    /// let built = SolverCache::new(cat.clone()).solver_stored(0.2, Some(&dir)).unwrap();
+    /// // A new cache of the same catalogue (a new process) reads the file.
+    /// let read = SolverCache::new(cat).solver_stored(0.2, Some(&dir)).unwrap();
+    /// assert_eq!(read.index_file(), built.index_file());
+    /// assert_eq!(read.pair_index(), built.pair_index());
+    /// std::fs::remove_dir_all(&dir).unwrap();
+    /// ```
+    pub fn solver_stored(&self, max_angle_rad: f64, dir: Option<&Path>) -> Result<Arc<Solver>> {
         if let Some(s) = self.cached(max_angle_rad) {
             return Ok(s);
         }
@@ -141,10 +172,26 @@ impl SolverCache {
         if let Some(s) = self.cached(max_angle_rad) {
             return Ok(s);
         }
-        let solver = Arc::new(Solver::new(
+        let t = Instant::now();
+        let key = || *self.key.get_or_init(|| super::catalog_key(&self.catalog));
+        let read =
+            dir.and_then(|d| stored::load(d, &self.catalog, key(), max_angle_rad, MAX_OVERSIZE));
+        let (indexes, file) = match read {
+            Some((indexes, path)) => (indexes, Some(path)),
+            None => {
+                let indexes = PairIndexes::build(&self.catalog, max_angle_rad * BUILD_MARGIN)?;
+                let file = dir
+                    .filter(|_| indexes.pairs.len() >= super::MIN_STORED_PAIRS)
+                    .and_then(|d| stored::save(d, key(), self.catalog.len(), &indexes).ok());
+                (indexes, file)
+            }
+        };
+        let solver = Arc::new(Solver::with_indexes(
             self.catalog.clone(),
-            max_angle_rad * BUILD_MARGIN,
-        )?);
+            indexes,
+            t.elapsed(),
+            file,
+        ));
         self.lock().push(solver.clone());
         Ok(solver)
     }

@@ -69,6 +69,7 @@ mod search;
 mod seeds;
 mod solver;
 mod stats;
+mod stored;
 mod tolerance;
 mod verify;
 mod voting;
@@ -88,6 +89,7 @@ use search::*;
 pub use seeds::{SeedTables, RING_ORDER, RING_SLACK, SEED_CANDIDATES};
 pub use solver::*;
 pub(crate) use stats::{binomial_tail, median_in_place};
+pub use stored::{catalog_key, INDEX_FILE_FORMAT, MIN_STORED_PAIRS};
 pub(crate) use verify::AMBIGUITY_LOG_ODDS;
 
 /// Frames a batch runs between two looks at its cancel flag (and the most results a cancelled

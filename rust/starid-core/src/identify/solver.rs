@@ -29,6 +29,57 @@ pub struct Solver {
     /// How often a catalogue triangle has its field to itself, per camera (see `empty`).
     pub(super) empty_fields: super::empty::EmptyFieldCache,
     pub(super) build_time: Duration,
+    /// The index file the pair indexes were read from or written to, if any.
+    pub(super) file: Option<std::path::PathBuf>,
+}
+
+/// The pair indexes of a [`Solver`]: what takes time to build, and what an index file keeps.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct PairIndexes {
+    pub(crate) pairs: PairIndex,
+    /// Pairs among the locally bright stars; `None` when they are most of the catalogue.
+    pub(crate) bright_pairs: Option<PairIndex>,
+}
+
+impl PairIndexes {
+    /// Index `catalog` for frames whose stars are at most `max_angle_rad` apart.
+    pub(crate) fn build(catalog: &Catalog, max_angle_rad: f64) -> Result<Self> {
+        // A deep catalogue: index the brightest stars only (the guide stars); verification
+        // still matches every centroid against the whole catalogue.
+        let n_cat = catalog.len() as f64;
+        let expected = 0.25 * n_cat * n_cat * (1.0 - max_angle_rad.cos());
+        let guide: Option<Vec<bool>> = (expected > MAX_INDEX_PAIRS as f64).then(|| {
+            let keep =
+                (MAX_INDEX_PAIRS as f64 / (0.25 * (1.0 - max_angle_rad.cos()))).sqrt() as usize;
+            let mut mags: Vec<f64> = catalog.mag().to_vec();
+            mags.sort_unstable_by(f64::total_cmp);
+            let limit = mags[keep.clamp(1, mags.len()) - 1];
+            catalog.mag().iter().map(|&m| m <= limit).collect()
+        });
+        let pairs = PairIndex::build_among(catalog, max_angle_rad, guide.as_deref())?;
+        // Half the width of a square field of this diagonal.
+        let mut members =
+            catalog.locally_bright(max_angle_rad / (2.0 * SQRT_2), BRIGHT_MAX_BRIGHTER);
+        if let Some(g) = &guide {
+            for (m, &k) in members.iter_mut().zip(g) {
+                *m &= k;
+            }
+        }
+        let bright = members.iter().filter(|&&m| m).count();
+        let bright_pairs = if 5 * bright < 4 * catalog.len() {
+            Some(PairIndex::build_among(
+                catalog,
+                max_angle_rad,
+                Some(&members),
+            )?)
+        } else {
+            None
+        };
+        Ok(Self {
+            pairs,
+            bright_pairs,
+        })
+    }
 }
 
 impl Solver {
@@ -46,47 +97,29 @@ impl Solver {
     /// ```
     pub fn new(catalog: Arc<Catalog>, max_angle_rad: f64) -> Result<Self> {
         let t = Instant::now();
-        // A deep catalogue: index the brightest stars only (the guide stars); verification
-        // still matches every centroid against the whole catalogue.
-        let n_cat = catalog.len() as f64;
-        let expected = 0.25 * n_cat * n_cat * (1.0 - max_angle_rad.cos());
-        let guide: Option<Vec<bool>> = (expected > MAX_INDEX_PAIRS as f64).then(|| {
-            let keep =
-                (MAX_INDEX_PAIRS as f64 / (0.25 * (1.0 - max_angle_rad.cos()))).sqrt() as usize;
-            let mut mags: Vec<f64> = catalog.mag().to_vec();
-            mags.sort_unstable_by(f64::total_cmp);
-            let limit = mags[keep.clamp(1, mags.len()) - 1];
-            catalog.mag().iter().map(|&m| m <= limit).collect()
-        });
-        let pairs = PairIndex::build_among(&catalog, max_angle_rad, guide.as_deref())?;
-        // Half the width of a square field of this diagonal.
-        let mut members =
-            catalog.locally_bright(max_angle_rad / (2.0 * SQRT_2), BRIGHT_MAX_BRIGHTER);
-        if let Some(g) = &guide {
-            for (m, &k) in members.iter_mut().zip(g) {
-                *m &= k;
-            }
-        }
-        let bright = members.iter().filter(|&&m| m).count();
-        let bright_pairs = if 5 * bright < 4 * catalog.len() {
-            Some(PairIndex::build_among(
-                &catalog,
-                max_angle_rad,
-                Some(&members),
-            )?)
-        } else {
-            None
-        };
+        let indexes = PairIndexes::build(&catalog, max_angle_rad)?;
+        Ok(Self::with_indexes(catalog, indexes, t.elapsed(), None))
+    }
+
+    /// A solver over pair indexes already built (or read from an index file, `file`), which
+    /// took `build_time`.
+    pub(super) fn with_indexes(
+        catalog: Arc<Catalog>,
+        indexes: PairIndexes,
+        build_time: Duration,
+        file: Option<std::path::PathBuf>,
+    ) -> Self {
+        let max_angle_rad = indexes.pairs.max_angle_rad();
         let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
         let mag_sorted = SortedMags::new(&mag32);
         let min_density_sr = sparsest_density(&catalog, 0.5 * max_angle_rad);
         let density = DensityMap::new(0.5 * max_angle_rad, |v| {
             catalog.count_in_cone(v, 0.5 * max_angle_rad)
         });
-        Ok(Self {
+        Self {
             catalog,
-            pairs,
-            bright_pairs,
+            pairs: indexes.pairs,
+            bright_pairs: indexes.bright_pairs,
             min_density_sr,
             density,
             mag32,
@@ -95,8 +128,9 @@ impl Solver {
             seed_tables: std::sync::OnceLock::new(),
             pair_density: std::sync::OnceLock::new(),
             empty_fields: Default::default(),
-            build_time: t.elapsed(),
-        })
+            build_time,
+            file,
+        }
     }
 
     /// Index `catalog` for frames of `camera`.
@@ -290,7 +324,7 @@ impl Solver {
         &self.mag32
     }
 
-    /// Time it took to build the pair indexes.
+    /// Time it took to build the pair indexes (or to read them from an index file).
     ///
     /// # Example
     /// ```
@@ -300,6 +334,19 @@ impl Solver {
     /// ```
     pub fn build_time(&self) -> Duration {
         self.build_time
+    }
+
+    /// The index file its pair indexes were read from or written to (see
+    /// [`SolverCache::solver_stored`]); `None` when they were built and not stored.
+    ///
+    /// # Example
+    /// ```
+    /// let cat = starid_core::simulate::random_catalog(3000, 1.0, 6.0, 1).unwrap();
+    /// let solver = starid_core::Solver::new(std::sync::Arc::new(cat), 0.3).unwrap();
+    /// assert!(solver.index_file().is_none());
+    /// ```
+    pub fn index_file(&self) -> Option<&std::path::Path> {
+        self.file.as_deref()
     }
 
     /// Identify the stars of one frame.

@@ -1,0 +1,356 @@
+//! Pair indexes kept on disk, so that a new process reads in milliseconds what took a few
+//! hundred to build: one file per catalogue and index angle, named by the catalogue's content,
+//! so that a changed catalogue never finds the files of another.
+//!
+//! A file holds a header (format, catalogue key, star count), the pair index and the bright
+//! pair index (k-vectors and pairs, little-endian), and a checksum of all of it. A file that
+//! does not read back whole and consistent is ignored and rebuilt; a directory that cannot be
+//! written only means the index is not kept.
+
+use std::path::{Path, PathBuf};
+
+use super::PairIndexes;
+use crate::catalog::Catalog;
+use crate::kvector::{PairIndex, PairStore};
+
+/// Version of the index file layout and of what the indexes hold; files of another are not read.
+pub const INDEX_FILE_FORMAT: u32 = 1;
+
+/// Indexes with fewer pairs are not written: they build in milliseconds.
+pub const MIN_STORED_PAIRS: usize = 100_000;
+
+const MAGIC: &[u8; 8] = b"STARIDPX";
+
+/// A 64-bit key of a catalogue's content (ids, directions, magnitudes, in order): index files
+/// are named by it.
+///
+/// # Example
+/// ```
+/// use starid_core::identify::catalog_key;
+/// let a = starid_core::simulate::random_catalog(500, 1.0, 6.0, 1).unwrap();
+/// let b = starid_core::simulate::random_catalog(500, 1.0, 6.0, 2).unwrap();
+/// assert_eq!(catalog_key(&a), catalog_key(&a.clone()));
+/// assert_ne!(catalog_key(&a), catalog_key(&b));
+/// ```
+pub fn catalog_key(catalog: &Catalog) -> u64 {
+    let mut h = Hash::default();
+    h.word(catalog.len() as u64);
+    for &id in catalog.ids() {
+        h.word(id as u64);
+    }
+    for v in catalog.vectors() {
+        for x in v.iter() {
+            h.word(x.to_bits());
+        }
+    }
+    for m in catalog.mag() {
+        h.word(m.to_bits());
+    }
+    h.0
+}
+
+/// A word-at-a-time hash (a splitmix64 finaliser over a rotating state).
+#[derive(Default)]
+struct Hash(u64);
+
+impl Hash {
+    #[inline]
+    fn word(&mut self, w: u64) {
+        let mut z = self.0.rotate_left(23) ^ w;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        self.0 = z ^ (z >> 31);
+    }
+
+    fn bytes(&mut self, b: &[u8]) {
+        let mut chunks = b.chunks_exact(8);
+        for c in &mut chunks {
+            self.word(u64::from_le_bytes(c.try_into().expect("8 bytes")));
+        }
+        let mut tail = [0u8; 8];
+        tail[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
+        self.word(u64::from_le_bytes(tail) ^ (b.len() as u64) << 56);
+    }
+}
+
+/// The file holding the indexes of catalogue `key` up to `max_angle_rad`, in `dir`.
+fn file_name(key: u64, max_angle_rad: f64) -> String {
+    format!(
+        "pairs-v{INDEX_FILE_FORMAT}-{key:016x}-{}.idx",
+        (max_angle_rad * 1e9).round() as u64
+    )
+}
+
+/// The index files in `dir` of catalogue `key`, with their index angles.
+fn files_of(dir: &Path, key: u64) -> Vec<(f64, PathBuf)> {
+    let prefix = format!("pairs-v{INDEX_FILE_FORMAT}-{key:016x}-");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    entries
+        .filter_map(|e| {
+            let e = e.ok()?;
+            let name = e.file_name();
+            let nrad: u64 = name
+                .to_str()?
+                .strip_prefix(&prefix)?
+                .strip_suffix(".idx")?
+                .parse()
+                .ok()?;
+            Some((nrad as f64 * 1e-9, e.path()))
+        })
+        .collect()
+}
+
+/// The smallest stored index of `catalog` (key `key`) in `dir` covering `max_angle_rad` and at
+/// most `max_oversize` times it, read and checked; `None` when there is none that reads back.
+pub(crate) fn load(
+    dir: &Path,
+    catalog: &Catalog,
+    key: u64,
+    max_angle_rad: f64,
+    max_oversize: f64,
+) -> Option<(PairIndexes, PathBuf)> {
+    let mut files: Vec<(f64, PathBuf)> = files_of(dir, key)
+        .into_iter()
+        .filter(|&(a, _)| a >= max_angle_rad && a <= max_oversize * max_angle_rad)
+        .collect();
+    files.sort_by(|a, b| a.0.total_cmp(&b.0));
+    files.into_iter().find_map(|(_, path)| {
+        let bytes = std::fs::read(&path).ok()?;
+        let indexes = decode(&bytes, key, catalog.len())?;
+        (indexes.pairs.max_angle_rad() >= max_angle_rad).then_some((indexes, path))
+    })
+}
+
+/// Write `indexes` of catalogue `key` to `dir` (created if need be), through a temporary file
+/// renamed into place so that a reader never sees half a file. Returns the file's path.
+///
+/// # Errors
+/// Any I/O error; the caller goes on without the file.
+pub(crate) fn save(
+    dir: &Path,
+    key: u64,
+    n_stars: usize,
+    indexes: &PairIndexes,
+) -> std::io::Result<PathBuf> {
+    std::fs::create_dir_all(dir)?;
+    let name = file_name(key, indexes.pairs.max_angle_rad());
+    let path = dir.join(&name);
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let written = std::fs::write(&tmp, encode(key, n_stars, indexes))
+        .and_then(|()| std::fs::rename(&tmp, &path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.map(|()| path)
+}
+
+fn encode(key: u64, n_stars: usize, indexes: &PairIndexes) -> Vec<u8> {
+    let mut out = Vec::with_capacity(
+        64 + indexes.pairs.memory_bytes()
+            + indexes
+                .bright_pairs
+                .as_ref()
+                .map_or(0, PairIndex::memory_bytes),
+    );
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&u64::from(INDEX_FILE_FORMAT).to_le_bytes());
+    out.extend_from_slice(&key.to_le_bytes());
+    out.extend_from_slice(&(n_stars as u64).to_le_bytes());
+    put_index(&mut out, &indexes.pairs);
+    match &indexes.bright_pairs {
+        Some(b) => {
+            out.extend_from_slice(&1u64.to_le_bytes());
+            put_index(&mut out, b);
+        }
+        None => out.extend_from_slice(&0u64.to_le_bytes()),
+    }
+    let mut h = Hash::default();
+    h.bytes(&out);
+    out.extend_from_slice(&h.0.to_le_bytes());
+    out
+}
+
+fn put_index(out: &mut Vec<u8>, index: &PairIndex) {
+    let (pairs, k, slope, intercept) = index.stored_parts();
+    let (wide, n_pairs) = match pairs {
+        PairStore::Narrow(p) => (0u64, p.len()),
+        PairStore::Wide(p) => (1u64, p.len()),
+    };
+    for w in [wide, n_pairs as u64, k.len() as u64] {
+        out.extend_from_slice(&w.to_le_bytes());
+    }
+    for x in [index.max_angle_rad(), slope, intercept] {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    match pairs {
+        PairStore::Narrow(p) => p
+            .iter()
+            .flatten()
+            .for_each(|i| out.extend_from_slice(&i.to_le_bytes())),
+        PairStore::Wide(p) => p
+            .iter()
+            .flatten()
+            .for_each(|i| out.extend_from_slice(&i.to_le_bytes())),
+    }
+    k.iter()
+        .for_each(|i| out.extend_from_slice(&i.to_le_bytes()));
+}
+
+/// The indexes a file's bytes hold, if they are whole, of this format, of catalogue `key` of
+/// `n_stars` stars, and consistent.
+fn decode(bytes: &[u8], key: u64, n_stars: usize) -> Option<PairIndexes> {
+    let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
+    let mut h = Hash::default();
+    h.bytes(body);
+    if h.0.to_le_bytes() != sum {
+        return None;
+    }
+    let mut r = Reader(body);
+    let header_ok = r.take(8)? == MAGIC
+        && r.word()? == u64::from(INDEX_FILE_FORMAT)
+        && r.word()? == key
+        && r.word()? == n_stars as u64;
+    if !header_ok {
+        return None;
+    }
+    let pairs = r.index(n_stars)?;
+    let bright_pairs = match r.word()? {
+        0 => None,
+        1 => Some(r.index(n_stars)?),
+        _ => return None,
+    };
+    r.0.is_empty().then_some(PairIndexes {
+        pairs,
+        bright_pairs,
+    })
+}
+
+struct Reader<'a>(&'a [u8]);
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Option<&[u8]> {
+        let (head, rest) = self.0.split_at_checked(n)?;
+        self.0 = rest;
+        Some(head)
+    }
+
+    fn word(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+
+    fn float(&mut self) -> Option<f64> {
+        Some(f64::from_bits(self.word()?))
+    }
+
+    fn index(&mut self, n_stars: usize) -> Option<PairIndex> {
+        let wide = self.word()?;
+        let n_pairs = usize::try_from(self.word()?).ok()?;
+        let n_k = usize::try_from(self.word()?).ok()?;
+        let (max_angle, slope, intercept) = (self.float()?, self.float()?, self.float()?);
+        let pairs = match wide {
+            0 => PairStore::Narrow(
+                self.take(n_pairs.checked_mul(4)?)?
+                    .chunks_exact(4)
+                    .map(|c| {
+                        [
+                            u16::from_le_bytes([c[0], c[1]]),
+                            u16::from_le_bytes([c[2], c[3]]),
+                        ]
+                    })
+                    .collect(),
+            ),
+            1 => PairStore::Wide(
+                self.take(n_pairs.checked_mul(8)?)?
+                    .chunks_exact(8)
+                    .map(|c| {
+                        [
+                            u32::from_le_bytes([c[0], c[1], c[2], c[3]]),
+                            u32::from_le_bytes([c[4], c[5], c[6], c[7]]),
+                        ]
+                    })
+                    .collect(),
+            ),
+            _ => return None,
+        };
+        let k: Vec<u32> = self
+            .take(n_k.checked_mul(4)?)?
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        PairIndex::from_stored_parts(max_angle, pairs, k, [slope, intercept], n_stars)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("starid-stored-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn indexes_read_back_as_written() {
+        for n in [3000, crate::kvector::NARROW_PAIR_STARS + 10] {
+            let cat = crate::simulate::random_catalog(n, 1.0, 6.0, 3).unwrap();
+            let built = PairIndexes::build(&cat, 0.05).unwrap();
+            let d = dir(&format!("round-{n}"));
+            let key = catalog_key(&cat);
+            let path = save(&d, key, cat.len(), &built).unwrap();
+            let (read, from) = load(&d, &cat, key, 0.045, 1.25).unwrap();
+            assert_eq!(from, path);
+            assert_eq!(read, built);
+            // Too large for a much narrower field, too small for a wider one.
+            assert!(load(&d, &cat, key, 0.03, 1.25).is_none());
+            assert!(load(&d, &cat, key, 0.06, 1.25).is_none());
+            std::fs::remove_dir_all(&d).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_damaged_or_foreign_file_is_not_read() {
+        let cat = crate::simulate::random_catalog(3000, 1.0, 6.0, 4).unwrap();
+        let built = PairIndexes::build(&cat, 0.05).unwrap();
+        let d = dir("damaged");
+        let key = catalog_key(&cat);
+        let path = save(&d, key, cat.len(), &built).unwrap();
+        let good = std::fs::read(&path).unwrap();
+        // Any flipped byte, and any truncation, is caught.
+        for at in [0, 9, 20, 40, good.len() / 2, good.len() - 1] {
+            let mut bad = good.clone();
+            bad[at] ^= 0x10;
+            std::fs::write(&path, &bad).unwrap();
+            assert!(
+                load(&d, &cat, key, 0.05, 1.25).is_none(),
+                "flipped byte {at}"
+            );
+        }
+        std::fs::write(&path, &good[..good.len() - 3]).unwrap();
+        assert!(load(&d, &cat, key, 0.05, 1.25).is_none());
+        // Another catalogue of the same size does not take this one's file, even renamed.
+        std::fs::write(&path, &good).unwrap();
+        let other = crate::simulate::random_catalog(3000, 1.0, 6.0, 5).unwrap();
+        let other_key = catalog_key(&other);
+        std::fs::rename(&path, d.join(file_name(other_key, 0.05))).unwrap();
+        assert!(load(&d, &other, other_key, 0.05, 1.25).is_none());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_catalogue_changed_in_one_magnitude_has_another_key() {
+        let cat = crate::simulate::random_catalog(3000, 1.0, 6.0, 6).unwrap();
+        let mut mag = cat.mag().to_vec();
+        mag[1234] += 0.001;
+        let ra: Vec<f64> = cat.ra_rad().iter().map(|r| r.to_degrees()).collect();
+        let dec: Vec<f64> = cat.dec_rad().iter().map(|r| r.to_degrees()).collect();
+        let changed = Catalog::new(cat.ids().to_vec(), &ra, &dec, mag).unwrap();
+        let same = Catalog::new(cat.ids().to_vec(), &ra, &dec, cat.mag().to_vec()).unwrap();
+        let again = Catalog::new(cat.ids().to_vec(), &ra, &dec, cat.mag().to_vec()).unwrap();
+        assert_eq!(catalog_key(&same), catalog_key(&again));
+        assert_ne!(catalog_key(&changed), catalog_key(&same));
+    }
+}
