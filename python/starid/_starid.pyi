@@ -569,6 +569,7 @@ def extract_centroids(
     drop_flagged: bool = True,
     hot_pixel_ratio: float = 0.25,
     deblend: bool = True,
+    filter_sigma_px: float = 1.0,
 ) -> dict[str, Any]: ...
 def simulate_image(
     catalog: Catalog,

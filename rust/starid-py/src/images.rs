@@ -45,7 +45,7 @@ fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
 #[pyfunction]
 #[pyo3(signature = (image, threshold_sigma=5.0, background_block=32, min_pixels=1, max_spots=2000,
                     saturation=None, max_elongation=3.0, drop_flagged=true, hot_pixel_ratio=0.25,
-                    deblend=true))]
+                    deblend=true, filter_sigma_px=1.0))]
 pub fn extract_centroids<'py>(
     py: Python<'py>,
     image: &Bound<'py, PyAny>,
@@ -58,6 +58,7 @@ pub fn extract_centroids<'py>(
     drop_flagged: bool,
     hot_pixel_ratio: f64,
     deblend: bool,
+    filter_sigma_px: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     if !(hot_pixel_ratio.is_finite() && (0.0..1.0).contains(&hot_pixel_ratio)) {
         return Err(InvalidInputError::new_err(format!(
@@ -74,6 +75,7 @@ pub fn extract_centroids<'py>(
         drop_flagged,
         hot_pixel_ratio,
         deblend,
+        filter_sigma_px,
     };
     let ex = if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u16>>() {
         extract_array(py, &a, &cfg)?

@@ -165,6 +165,12 @@ impl Background {
         bad == 0
     }
 
+    /// The threshold row of image row `j`, as [`Background::subtract_row`] reads it.
+    pub(super) fn threshold_row<'a>(&self, thr: &'a [Vec<f32>], j: usize) -> &'a [f32] {
+        let (y0, y1, t) = self.row_weights[j];
+        &thr[if t < 0.5 { y0 } else { y1 }]
+    }
+
     /// The threshold rows' value at pixel `(i, j)`, as [`Background::subtract_row`] reads it.
     pub(super) fn threshold_at(&self, thr: &[Vec<f32>], i: usize, j: usize) -> f32 {
         let (y0, y1, t) = self.row_weights[j];
@@ -175,6 +181,34 @@ impl Background {
     /// steps, so that no pattern of the sensor's lines aliases), from its quantiles
     /// ([`spread_sigma`]; the share of samples at the image's lowest value tells whether the
     /// background was clipped).
+    /// The median and σ of an image already less its background (a smoothed one), from the
+    /// sparse grid of pixels [`Background::robust_sigma`] reads: σ is the spread from the
+    /// median to the 84th percentile, which holds where the background was clipped below its
+    /// median (smoothing blurs the clipped level, so the quartiles would read it too narrow,
+    /// and lifts the level to the clipped noise's mean, which the median follows).
+    pub(super) fn sample_level_sigma(
+        &self,
+        img: &[f32],
+        width: usize,
+        height: usize,
+    ) -> (f64, f64) {
+        let step = (((width * height) as f64 / 16_384.0).sqrt() as usize).max(1) | 1;
+        let mut s: Vec<f32> = (step / 2..height)
+            .step_by(step)
+            .flat_map(|j| {
+                (step / 2..width)
+                    .step_by(step)
+                    .map(move |i| img[j * width + i])
+            })
+            .collect();
+        if s.is_empty() {
+            return (0.0, 0.0);
+        }
+        s.sort_unstable_by(f32::total_cmp);
+        let q = |p: f64| f64::from(s[((p * s.len() as f64) as usize).min(s.len() - 1)]);
+        (q(0.5), (q(normal_cdf_one_sigma()) - q(0.5)).max(0.0))
+    }
+
     pub(super) fn robust_sigma<T: Pixel>(&self, img: &[T], width: usize, height: usize) -> f64 {
         let step = (((width * height) as f64 / 16_384.0).sqrt() as usize).max(1) | 1;
         let mut s: Vec<f32> = Vec::with_capacity((width / step + 1) * (height / step + 1));
@@ -264,6 +298,11 @@ fn level_step(sorted: &[f32]) -> f64 {
     } else {
         0.0
     }
+}
+
+/// Φ(1): the share of a Gaussian below one σ above its mean.
+fn normal_cdf_one_sigma() -> f64 {
+    0.841_344_746
 }
 
 /// The standard normal quantile Φ⁻¹(p) for p in (0, 1): Acklam's rational approximation

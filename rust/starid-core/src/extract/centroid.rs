@@ -113,11 +113,12 @@ pub(super) fn measure<T: Pixel>(
     } else {
         ((pi as f64) + 0.5, (pj as f64) + 0.5)
     };
-    // The shape from the component's own pixels (all above the threshold, so positive): a
-    // window's noise would make second moments meaningless for faint spots.
+    // The shape from the component's own pixels, their light only (a component detected on
+    // the smoothed image holds pixels the noise took below the background): a window's
+    // noise would make second moments meaningless for faint spots.
     let (mut cs, mut cx, mut cy, mut cxx, mut cyy, mut cxy) = (0.0f64, 0.0, 0.0, 0.0, 0.0, 0.0);
     for &k in comp {
-        let v = f64::from(resid[k]);
+        let v = f64::from(resid[k]).max(0.0);
         let (px, py) = ((k % width) as f64 + 0.5, (k / width) as f64 + 0.5);
         cs += v;
         cx += v * px;
@@ -126,7 +127,12 @@ pub(super) fn measure<T: Pixel>(
         cyy += v * py * py;
         cxy += v * px * py;
     }
-    let (mx, my) = (cx / cs, cy / cs);
+    let (mx, my) = if cs > 0.0 {
+        (cx / cs, cy / cs)
+    } else {
+        ((pi as f64) + 0.5, (pj as f64) + 0.5)
+    };
+    let cs = cs.max(f64::MIN_POSITIVE);
     let (vxx, vyy, vxy) = (
         cxx / cs - mx * mx + 1.0 / 12.0,
         cyy / cs - my * my + 1.0 / 12.0,
@@ -142,8 +148,9 @@ pub(super) fn measure<T: Pixel>(
         owns,
     );
     // A centroid is where the component's light is: one the window moved off the component's
-    // box (a spot lost in noise) is its own pixels' mean, which lies inside it.
-    let (x, y) = if near_component(comp, width, x, y) {
+    // box or off the image (a spot lost in noise) is its own pixels' mean, which lies inside.
+    let on_image = (0.0..=width as f64).contains(&x) && (0.0..=height as f64).contains(&y);
+    let (x, y) = if on_image && near_component(comp, width, x, y) {
         (x, y)
     } else {
         (mx, my)
