@@ -130,7 +130,9 @@ def read_image(path: PathLike) -> npt.NDArray[Any]:
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
                 with Image.open(p) as im:
                     _check_pixels(p, *im.size)
-                    arr = np.asarray(im)
+                    # Colour to luminance in Pillow, straight to float32: no copy of the
+                    # colour planes (weights as `_as_image` takes them from an array).
+                    arr = np.asarray(im.convert("F") if im.mode in _PIL_COLOUR_MODES else im)
         except InvalidInputError:
             raise
         except Exception as e:  # Pillow raises OSError, ValueError, DecompressionBombError, SyntaxError...
@@ -138,6 +140,12 @@ def read_image(path: PathLike) -> npt.NDArray[Any]:
         return _as_image(arr, str(p))
     raise InvalidInputError(f"{p}: unsupported image format {p.suffix or '(none)'}: PNG, JPEG, TIFF or FITS")
 
+
+#: Pillow modes read as luminance (ITU-R 601 weights, as Pillow converts them).
+_PIL_COLOUR_MODES = ("RGB", "RGBA", "RGBX", "P", "PA", "LA", "CMYK", "YCbCr")
+
+#: Luminance weights of red, green and blue (ITU-R 601, Pillow's "L" and "F" conversion).
+LUMA_WEIGHTS = (0.299, 0.587, 0.114)
 
 #: Pixel types the core reads in place; other real types are converted to float32.
 _NATIVE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
@@ -149,7 +157,7 @@ def _as_image(arr: Any, name: str = "image") -> npt.NDArray[Any]:
     become float32."""
     a = np.asarray(arr)
     if a.ndim == 3 and a.shape[2] in (3, 4):
-        a = a[:, :, :3].astype(np.float32) @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+        a = a[:, :, :3].astype(np.float32) @ np.array(LUMA_WEIGHTS, dtype=np.float32)
     if a.ndim != 2:
         raise InvalidInputError(f"{name} must be a 2-D image (H, W) or colour (H, W, 3), got shape {a.shape}")
     if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
