@@ -380,7 +380,7 @@ impl CellIndex {
 /// [`CellIndex`]), divided by the cone's solid angle. A direction reads its cell's value: the
 /// density of a cone whose centre is within half a cell diagonal of its own. Built with cells at
 /// most a quarter of the radius wide; for narrower cones [`DensityMap::new`] gives `None`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct DensityMap {
     cells_per_edge: usize,
     radius_rad: f64,
@@ -430,6 +430,30 @@ impl DensityMap {
         let per_sr = (0..6 * g * g).map(per_cell).collect();
         Some(Self {
             cells_per_edge: g,
+            radius_rad,
+            per_sr,
+        })
+    }
+
+    /// What an index file keeps: cells along a face edge, the cone radius, the densities.
+    pub(crate) fn stored_parts(&self) -> (usize, f64, &[f32]) {
+        (self.cells_per_edge, self.radius_rad, &self.per_sr)
+    }
+
+    /// A map from the parts [`DensityMap::stored_parts`] gave; `None` unless they are
+    /// consistent (a cell count within the limit, a density per cell, finite and not negative).
+    pub(crate) fn from_stored_parts(
+        cells_per_edge: usize,
+        radius_rad: f64,
+        per_sr: Vec<f32>,
+    ) -> Option<Self> {
+        let sound = (1..=DENSITY_MAP_MAX_CELLS_PER_EDGE).contains(&cells_per_edge)
+            && per_sr.len() == 6 * cells_per_edge * cells_per_edge
+            && radius_rad.is_finite()
+            && radius_rad > 0.0
+            && per_sr.iter().all(|d| d.is_finite() && *d >= 0.0);
+        sound.then_some(Self {
+            cells_per_edge,
             radius_rad,
             per_sr,
         })

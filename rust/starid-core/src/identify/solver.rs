@@ -33,12 +33,17 @@ pub struct Solver {
     pub(super) file: Option<std::path::PathBuf>,
 }
 
-/// The pair indexes of a [`Solver`]: what takes time to build, and what an index file keeps.
+/// The pair indexes of a [`Solver`] with the star densities its bound reads: what takes time
+/// to build, and what an index file keeps.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct PairIndexes {
     pub(crate) pairs: PairIndex,
     /// Pairs among the locally bright stars; `None` when they are most of the catalogue.
     pub(crate) bright_pairs: Option<PairIndex>,
+    /// As [`Solver::min_density_sr`](Solver).
+    pub(crate) min_density_sr: f64,
+    /// As [`Solver::density`](Solver).
+    pub(crate) density: Option<DensityMap>,
 }
 
 impl PairIndexes {
@@ -75,9 +80,15 @@ impl PairIndexes {
         } else {
             None
         };
+        let min_density_sr = sparsest_density(catalog, 0.5 * max_angle_rad);
+        let density = DensityMap::new(0.5 * max_angle_rad, |v| {
+            catalog.count_in_cone(v, 0.5 * max_angle_rad)
+        });
         Ok(Self {
             pairs,
             bright_pairs,
+            min_density_sr,
+            density,
         })
     }
 }
@@ -109,19 +120,14 @@ impl Solver {
         build_time: Duration,
         file: Option<std::path::PathBuf>,
     ) -> Self {
-        let max_angle_rad = indexes.pairs.max_angle_rad();
         let mag32: Vec<f32> = catalog.mag().iter().map(|&m| m as f32).collect();
         let mag_sorted = SortedMags::new(&mag32);
-        let min_density_sr = sparsest_density(&catalog, 0.5 * max_angle_rad);
-        let density = DensityMap::new(0.5 * max_angle_rad, |v| {
-            catalog.count_in_cone(v, 0.5 * max_angle_rad)
-        });
         Self {
             catalog,
             pairs: indexes.pairs,
             bright_pairs: indexes.bright_pairs,
-            min_density_sr,
-            density,
+            min_density_sr: indexes.min_density_sr,
+            density: indexes.density,
             mag32,
             mag_sorted,
             mag_pairs: std::sync::OnceLock::new(),

@@ -3,7 +3,8 @@
 //! so that a changed catalogue never finds the files of another.
 //!
 //! A file holds a header (format, catalogue key, star count), the pair index and the bright
-//! pair index (k-vectors and pairs, little-endian), and a checksum of all of it. A file that
+//! pair index (k-vectors and pairs), the star densities of the false-match bound (the sparsest
+//! field's and the sky map's), little-endian, and a checksum of all of it. A file that
 //! does not read back whole and consistent is ignored and rebuilt; a directory that cannot be
 //! written only means the index is not kept.
 
@@ -12,9 +13,10 @@ use std::path::{Path, PathBuf};
 use super::PairIndexes;
 use crate::catalog::Catalog;
 use crate::kvector::{PairIndex, PairStore};
+use crate::sky::DensityMap;
 
 /// Version of the index file layout and of what the indexes hold; files of another are not read.
-pub const INDEX_FILE_FORMAT: u32 = 1;
+pub const INDEX_FILE_FORMAT: u32 = 2;
 
 /// Indexes with fewer pairs are not written: they build in milliseconds.
 pub const MIN_STORED_PAIRS: usize = 100_000;
@@ -166,6 +168,20 @@ fn encode(key: u64, n_stars: usize, indexes: &PairIndexes) -> Vec<u8> {
         }
         None => out.extend_from_slice(&0u64.to_le_bytes()),
     }
+    out.extend_from_slice(&indexes.min_density_sr.to_le_bytes());
+    match &indexes.density {
+        Some(d) => {
+            let (g, radius, per_sr) = d.stored_parts();
+            for w in [1u64, g as u64] {
+                out.extend_from_slice(&w.to_le_bytes());
+            }
+            out.extend_from_slice(&radius.to_le_bytes());
+            per_sr
+                .iter()
+                .for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+        }
+        None => out.extend_from_slice(&0u64.to_le_bytes()),
+    }
     let mut h = Hash::default();
     h.bytes(&out);
     out.extend_from_slice(&h.0.to_le_bytes());
@@ -221,9 +237,28 @@ fn decode(bytes: &[u8], key: u64, n_stars: usize) -> Option<PairIndexes> {
         1 => Some(r.index(n_stars)?),
         _ => return None,
     };
-    r.0.is_empty().then_some(PairIndexes {
+    let min_density_sr = r.float()?;
+    let density = match r.word()? {
+        0 => None,
+        1 => {
+            let g = usize::try_from(r.word()?).ok()?;
+            let radius = r.float()?;
+            let n = g.checked_mul(g)?.checked_mul(6)?;
+            let per_sr = r
+                .take(n.checked_mul(4)?)?
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            Some(DensityMap::from_stored_parts(g, radius, per_sr)?)
+        }
+        _ => return None,
+    };
+    let sound = r.0.is_empty() && min_density_sr.is_finite() && min_density_sr > 0.0;
+    sound.then_some(PairIndexes {
         pairs,
         bright_pairs,
+        min_density_sr,
+        density,
     })
 }
 
@@ -309,6 +344,15 @@ mod tests {
             assert!(load(&d, &cat, key, 0.06, 1.25).is_none());
             std::fs::remove_dir_all(&d).unwrap();
         }
+        // A field wide enough for a map of the sky's star density keeps it too.
+        let cat = crate::simulate::random_catalog(3000, 1.0, 6.0, 3).unwrap();
+        let built = PairIndexes::build(&cat, 0.3).unwrap();
+        assert!(built.density.is_some());
+        let d = dir("density");
+        let key = catalog_key(&cat);
+        save(&d, key, cat.len(), &built).unwrap();
+        assert_eq!(load(&d, &cat, key, 0.3, 1.25).unwrap().0, built);
+        std::fs::remove_dir_all(&d).unwrap();
     }
 
     #[test]
