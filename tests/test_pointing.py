@@ -177,7 +177,7 @@ def test_the_stages_of_an_unknown_field() -> None:
     size = (1024.0, 768.0)
     plan = stages(None, None, size)
     assert [(lo, hi, spots) for lo, hi, _, spots, _ in plan] == [
-        (8.0, 25.0, 8), (4.0, 8.0, 8), (4.0, 8.0, 8), (4.0, 8.0, 6), (25.0, 60.0, 8), (8.0, 25.0, None)
+        (8.0, 25.0, 10), (4.0, 8.0, 10), (4.0, 8.0, 10), (4.0, 8.0, 6), (25.0, 60.0, 10), (8.0, 25.0, None)
     ]
     assert [c.name.split()[1] for _, _, c, _, _ in plan] == ["Hp<=6.5", "Hp<=6.5", "Hp<=7", "Hp<=8", "Hp<=5.5", "Hp<=6.5"]
     # A range given narrows the bands; the last stage searches all of it with every spot.

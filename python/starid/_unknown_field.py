@@ -26,8 +26,9 @@ from ._errors import InvalidInputError
 #: The range searched when neither the field of view nor a range is given (degrees).
 DEFAULT_FOV_RANGE_DEG = (8.0, 25.0)
 
-#: Brightest spots a quick stage searches.
-STAGE_SPOTS = 8
+#: Brightest spots a quick stage searches (ten: two bright spots that are not stars, a
+#: nebula's knot or a planet, leave the quick stage eight stars to find the field from).
+STAGE_SPOTS = 10
 
 #: Catalogue pairs a quick stage may visit per frame (about 0.1 s).
 STAGE_PAIRS = 100_000
