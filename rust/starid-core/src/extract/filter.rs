@@ -7,11 +7,12 @@ thread_local! {
     static COLUMNS: std::cell::Cell<Vec<f32>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
-/// `img` (`width` a row) convolved with a normalised Gaussian of `sigma_px`, truncated at
-/// 2σ (enough for detection), into `out` (resized): separable, a column pass then a row pass, each over bands of
-/// rows in parallel and vectorised along the rows. Near the edges the kernel keeps its taps
-/// inside the image, scaled so that white noise keeps the σ it has inside (fewer pixels
-/// average less): a border pixel is not a likelier detection than any other.
+/// `img` (`width` a row) convolved with a normalised Gaussian of `sigma_px`, truncated at 2σ
+/// (enough for detection), into `out` (resized): separable, a column pass then a row pass,
+/// each over bands of rows in parallel and vectorised along the rows. Near the edges the
+/// kernel keeps its taps inside the image, scaled so that white noise keeps the σ it has
+/// inside (fewer pixels average less): a border pixel is not a likelier detection than any
+/// other.
 pub(super) fn gaussian_filter(
     img: &[f32],
     width: usize,
@@ -40,6 +41,11 @@ pub(super) fn gaussian_filter(
     for_row_bands(&mut cols, width, |j, dst, _| {
         let (lo, hi, scale) = taps(j, height);
         let row = |t: usize| &img[(j + t - r) * width..(j + t - r + 1) * width];
+        if hi - lo == 4 {
+            let taps: [f32; 5] = std::array::from_fn(|t| w[lo + t] * scale);
+            sum5(dst, std::array::from_fn(|t| row(lo + t)), taps);
+            return true;
+        }
         for (d, &v) in dst.iter_mut().zip(row(lo)) {
             *d = w[lo] * scale * v;
         }
@@ -56,7 +62,14 @@ pub(super) fn gaussian_filter(
     let inner = width.saturating_sub(2 * r);
     for_row_bands(out, width, |j, dst, _| {
         let src = &cols[j * width..(j + 1) * width];
-        if inner > 0 {
+        if inner > 0 && w.len() == 5 {
+            let taps: [f32; 5] = std::array::from_fn(|t| w[t]);
+            sum5(
+                &mut dst[r..r + inner],
+                std::array::from_fn(|t| &src[t..t + inner]),
+                taps,
+            );
+        } else if inner > 0 {
             for (d, &v) in dst[r..r + inner].iter_mut().zip(&src[..inner]) {
                 *d = w[0] * v;
             }
@@ -66,7 +79,8 @@ pub(super) fn gaussian_filter(
                 }
             }
         }
-        for i in (0..width).filter(|&i| i < r || i >= r + inner) {
+        let left = r.min(width);
+        for i in (0..left).chain(left.max(r + inner)..width) {
             let (lo, hi, scale) = taps(i, width);
             dst[i] = scale * (lo..=hi).map(|t| w[t] * src[i + t - r]).sum::<f32>();
         }
@@ -74,5 +88,15 @@ pub(super) fn gaussian_filter(
     });
     if cols.capacity() <= KEEP_BUFFER_PIXELS {
         COLUMNS.with(|c| c.replace(cols));
+    }
+}
+
+/// `dst[i] = Σ taps[t] · src[t][i]` in one sweep (the default filter's five taps): one write
+/// per value, vectorised along the row.
+fn sum5(dst: &mut [f32], src: [&[f32]; 5], taps: [f32; 5]) {
+    let n = dst.len();
+    let [a, b, c, d, e] = src.map(|s| &s[..n]);
+    for (i, out) in dst.iter_mut().enumerate() {
+        *out = taps[0] * a[i] + taps[1] * b[i] + taps[2] * c[i] + taps[3] * d[i] + taps[4] * e[i];
     }
 }
