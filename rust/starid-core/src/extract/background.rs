@@ -154,13 +154,8 @@ impl Background {
             over += u32::from(v > th[i]);
             bad |= u32::from(!v.is_finite());
         }
-        // A few pixels in a thousand rise above it: listed only in rows that have any.
         if over > 0 {
-            list.extend(
-                (0..width)
-                    .filter(|&i| out[i] > th[i])
-                    .map(|i| j * width + i),
-            );
+            list_above(out, th, j, list);
         }
         bad == 0
     }
@@ -248,6 +243,18 @@ impl Background {
 /// thousand hold it, or a few in a hundred where coarse quantisation piles the tail onto one
 /// level (and there the upper quantiles measure the same σ).
 pub(super) const CLIPPED_SHARE: f64 = 0.08;
+
+/// The pixels of row `j` (`row`, a row of the image) above their thresholds `th`, as indices
+/// into the image, appended to `list`. A few pixels in a thousand rise above it: callers
+/// count first and list only rows that have any.
+pub(super) fn list_above(row: &[f32], th: &[f32], j: usize, list: &mut Vec<usize>) {
+    let width = row.len();
+    list.extend(
+        (0..width)
+            .filter(|&i| row[i] > th[i])
+            .map(|i| j * width + i),
+    );
+}
 
 /// The σ of samples `s` (reordered) of a Gaussian, from two of their quantiles: the quartiles
 /// (σ = IQR / 1.349, robust to the stars among them) or, where the background was clipped

@@ -269,11 +269,7 @@ pub fn extract<T: Pixel>(
                 let th = &grid.threshold_row(&thr, j)[..width];
                 let over: u32 = row.iter().zip(th).map(|(v, t)| u32::from(v > t)).sum();
                 if over > 0 {
-                    list.extend(
-                        (0..width)
-                            .filter(|&i| row[i] > th[i])
-                            .map(|i| j * width + i),
-                    );
+                    list_above(row, th, j, list);
                 }
                 true
             });
