@@ -7,7 +7,7 @@ import importlib
 
 import pytest
 
-MODULES = ["starid", "starid._catalog", "starid._identify", "starid._batch", "starid.guide", "starid.pointing", "starid.starlist", "starid.tracking", "starid.images", "starid.wcs"]
+MODULES = ["starid", "starid._catalog", "starid._identify", "starid._simulate", "starid._batch", "starid.guide", "starid.pointing", "starid.starlist", "starid.tracking", "starid.images", "starid.wcs"]
 
 
 @pytest.mark.parametrize("name", MODULES)

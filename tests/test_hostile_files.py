@@ -55,11 +55,11 @@ def test_a_decompression_bomb_is_a_typed_error(tmp_path: Path) -> None:
 
 
 def test_the_pixel_limit_is_checked_before_decoding(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import starid.images
+    import starid._read
 
     p = tmp_path / "big.png"
     Image.new("L", (200, 100)).save(p)
-    monkeypatch.setattr(starid.images, "MAX_IMAGE_PIXELS", 10_000)
+    monkeypatch.setattr(starid._read, "MAX_IMAGE_PIXELS", 10_000)
     with pytest.raises(starid.InvalidInputError, match="200 x 100 pixels"):
         starid.read_image(p)
 

@@ -18,18 +18,10 @@ from ._catalog import BUNDLED_DEPTHS, MAX_STARS_PER_FIELD, MIN_STARS_PER_FIELD, 
 from ._errors import CatalogError, InvalidInputError, StaridError
 from ._index_cache import clear_index_cache, index_cache_dir, index_cache_files, set_index_cache_dir
 from ._batch import identify_many
-from ._identify import (
-    DEFAULT_FOV_RANGE_DEG,
-    METHODS,
-    SCENE_FAMILIES,
-    Camera,
-    Frame,
-    Identification,
-    IdentifyConfig,
-    identify,
-    simulate,
-    simulate_scene,
-)
+from ._args import METHODS, Camera, Identification, IdentifyConfig
+from ._identify import identify
+from ._simulate import SCENE_FAMILIES, Frame, simulate, simulate_scene
+from ._unknown_field import DEFAULT_FOV_RANGE_DEG
 from ._starid import __version__
 from .images import Centroids, ImageIdentification, extract_centroids, identify_image, read_image, simulate_image
 from .starlist import read_star_list

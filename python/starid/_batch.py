@@ -12,14 +12,13 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
-from ._catalog import Catalog, resolve_catalog, resolve_catalog_for
+from ._catalog import Catalog, CatalogLike, resolve_catalog, resolve_catalog_for
 from ._centroids import Centroids
 from ._errors import InvalidInputError
 from ._unknown_field import identify_rough_field, identify_unknown_field
-from ._identify import (
+from ._args import (
     _F64,
     _UNSET,
-    CatalogLike,
     Identification,
     _camera,
     _config,

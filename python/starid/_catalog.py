@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
+from ._args import _camera
 from ._errors import CatalogError, InvalidInputError
 from ._files import checked_input, write_atomically
 
@@ -176,7 +177,6 @@ class Catalog:
             from scipy.io import loadmat  # type: ignore[import-untyped]
         except ImportError as e:  # pragma: no cover - depends on the environment
             raise ImportError("reading .mat catalogues needs scipy: pip install 'starid-solver[mat]'") from None
-        from ._errors import CatalogError
 
         path = os.fspath(path)
         if os.path.isdir(path):
@@ -338,8 +338,6 @@ class Catalog:
         sum ``memory_bytes``. ``index_file`` is the file in the index cache directory the pair
         indexes were read from or written to (see :func:`starid.set_index_cache_dir`), or None.
         """
-        from ._identify import _camera
-
         diag = _camera(None, fov_deg, image_size).diagonal_fov_deg
         return dict(self._native.index_info(diag, bool(magnitude_index)))
 
@@ -358,8 +356,6 @@ class Catalog:
         >>> cat.method_index("radial-vote", 12.0, (512, 512))["bytes"] < cat.method_index("angular-distance", 12.0, (512, 512))["bytes"]
         True
         """
-        from ._identify import _camera
-
         diag = _camera(None, fov_deg, image_size).diagonal_fov_deg
         return dict(self._native.method_index(str(method), diag))
 
@@ -556,6 +552,10 @@ def resolve_catalog_of(catalog: Union["Catalog", PathLike, None], result: Any) -
         if m is not None and float(m.group(1)) != BUNDLED_DEPTHS[0]:
             return Catalog.deep(float(m.group(1)))
     return resolve_catalog(catalog)
+
+
+#: What a ``catalog`` argument may be: a Catalog, a file, or None (chosen by starid).
+CatalogLike = Union[Catalog, str, "os.PathLike[str]", None]
 
 
 def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":

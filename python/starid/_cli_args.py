@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Optional
 
-from ._identify import METHODS
+from ._args import METHODS
 from ._starid import __version__
 
 

@@ -23,7 +23,7 @@ from . import _starid
 from ._batch import identify_many
 from ._errors import InvalidInputError
 from ._files import checked_input, write_atomically
-from ._identify import Camera, _camera
+from ._args import Camera, _camera
 
 __all__ = ["calibrate", "load_camera", "save_camera"]
 

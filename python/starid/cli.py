@@ -16,12 +16,18 @@ import numpy as np
 from ._catalog import Catalog, resolve_catalog
 from ._batch import identify_many
 from .calibration import calibrate, load_camera
-from ._identify import METHODS, Camera, Identification, identify, simulate
+from . import guide, pointing
+from ._args import METHODS, Camera, Identification
+from ._identify import identify
+from ._simulate import simulate
 from ._errors import InvalidInputError
 from ._cli_args import parser
 from ._files import refuse_overwriting, write_atomically
 from ._index_cache import clear_index_cache, index_cache_dir, index_cache_files
-from .images import extract_centroids
+from .images import extract_centroids, simulate_image
+from .plot import annotate
+from .tracking import Tracker
+from .wcs import wcs_header
 from .starlist import StarList, read_star_list
 
 EXAMPLE_FRAME = Path(__file__).parent / "data" / "example_frame.csv"
@@ -69,8 +75,6 @@ def _write_wcs(out: Path, res: Identification, size: Optional[tuple[float, float
         from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
     except ImportError as e:
         raise ImportError("--wcs needs astropy: pip install 'starid-solver[fits]'") from None
-    from .wcs import wcs_header
-
     if size is None:
         raise ValueError("--wcs needs the image size")
     hdu = fits.PrimaryHDU(header=fits.Header(wcs_header(res, size)))
@@ -323,8 +327,6 @@ def _identify(args: argparse.Namespace) -> int:
         if args.corr is not None and res.ok:
             _write_corr(args.corr, res)
         if args.annotate is not None:
-            from .plot import annotate
-
             annotate(path, res, args.annotate, catalog=catalog, xy=stars.xy)
             _wrote(args.annotate.resolve())
         if args.json:
@@ -423,8 +425,6 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _simulate_image(args: argparse.Namespace) -> int:
     """``simulate --image OUT``: the rendered frame, 16-bit, as PNG/TIFF or FITS."""
-    from .images import simulate_image
-
     if args.attitude_deg is not None or args.mirrored or args.drop_fraction or args.mag_noise:
         raise InvalidInputError("--image takes --fov-deg, --size, --seed, --mag-limit and --false-stars only")
     img, frame = simulate_image(
@@ -481,8 +481,6 @@ def _catalog_info(args: argparse.Namespace) -> int:
 
 
 def _boresight(args: argparse.Namespace) -> int:
-    from . import pointing
-
     focal = args.focal_px
     if args.fov_deg is not None:
         if focal is not None or args.width is None:
@@ -527,8 +525,6 @@ def _boresight(args: argparse.Namespace) -> int:
 
 
 def _guide(args: argparse.Namespace) -> int:
-    from . import guide
-
     refuse_overwriting([getattr(args, "output", None)], [args.catalog])
     cat = resolve_catalog(args.catalog)
     if args.guide_command == "compare":
@@ -578,8 +574,6 @@ def _guide(args: argparse.Namespace) -> int:
 
 
 def _track(args: argparse.Namespace) -> int:
-    from .tracking import Tracker
-
     files: list[Path] = list(args.files)
     if args.times is not None:
         try:

@@ -29,10 +29,11 @@ import numpy as np
 import pandas as pd
 
 from . import _starid
-from ._catalog import Catalog, resolve_catalog
+from ._catalog import Catalog, CatalogLike, resolve_catalog
 from ._errors import InvalidInputError
 from ._batch import identify_many
-from ._identify import CatalogLike, Identification, _camera, _invalid
+from ._args import Identification, _camera, _invalid
+from ._read import read_image
 
 try:
     import dask.bag as dask_bag
@@ -372,8 +373,6 @@ def identify_frames(
 
 def _read_any(path: str) -> np.ndarray:
     """An image from a local path or any fsspec URL (``s3://``, ``gcs://``, ``https://``...)."""
-    from .images import read_image
-
     if "://" not in path or path.startswith("file://"):
         return read_image(path[7:] if path.startswith("file://") else path)
     try:

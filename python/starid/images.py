@@ -13,29 +13,26 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _starid
-from ._catalog import resolve_catalog, resolve_catalog_for
-from ._errors import InvalidInputError
-from ._files import checked_input
-from . import _identify as _identify_module
-from ._identify import CatalogLike, Frame, Identification, IdentifyConfig, _camera, _config, _flag, _frame, _whole
+from ._args import Identification, IdentifyConfig, _camera, _config, _flag, _whole
+from ._catalog import CatalogLike, PathLike, resolve_catalog, resolve_catalog_for
 from ._centroids import FLAGS, Centroids
+from ._errors import InvalidInputError
+from ._read import LUMA_WEIGHTS, MAX_IMAGE_PIXELS, _as_image, _load, read_image
+from ._simulate import Frame, _frame
+from ._solve import identify_centroids
 from ._unknown_field import identify_rough_field
+from .plot import annotate
+from .wcs import wcs, wcs_header
 
 __all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
 
-PathLike = Union[str, "os.PathLike[str]"]
-
-_PIL_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".gif", ".webp"}
-_FITS_SUFFIXES = (".fits", ".fit", ".fts", ".fits.gz", ".fit.gz")
 
 
 @dataclass(frozen=True)
@@ -55,125 +52,17 @@ class ImageIdentification:
 
     def wcs_header(self) -> dict[str, Any]:
         """The FITS WCS keywords (TAN) of the identified image (see :mod:`starid.wcs`)."""
-        from .wcs import wcs_header
-
         return wcs_header(self.identification, self.centroids.image_size, self.camera)
 
     def wcs(self) -> Any:
         """The ``astropy.wcs.WCS`` of the identified image (``pip install 'starid-solver[fits]'``)."""
-        from .wcs import wcs
-
         return wcs(self.identification, self.centroids.image_size, self.camera)
 
     def plot(self, image: Union[npt.ArrayLike, PathLike], path: Optional[PathLike] = None, *, catalog: CatalogLike = None, dpi: int = 100) -> Any:
         """The image annotated with this identification (see :func:`starid.plot.annotate`;
         ``pip install 'starid-solver[plot]'``): saved as a PNG of the image's size at ``path`` when given;
         returns the matplotlib figure."""
-        from .plot import annotate
-
         return annotate(image, self, path, catalog=catalog, dpi=dpi)
-
-
-#: Largest image read, in pixels (``STARID_MAX_IMAGE_PIXELS`` changes it): checked from the file's
-#: header before its pixels are decoded. Pillow's own limit (``PIL.Image.MAX_IMAGE_PIXELS``,
-#: twice which it refuses a file) applies to PNG, JPEG and TIFF as well; the default is that.
-MAX_IMAGE_PIXELS = int(os.environ.get("STARID_MAX_IMAGE_PIXELS", 178_956_970))
-
-
-def _check_pixels(p: Path, width: int, height: int) -> None:
-    if width * height > MAX_IMAGE_PIXELS:
-        raise InvalidInputError(
-            f"{p}: {width} x {height} pixels, over the {MAX_IMAGE_PIXELS}-pixel limit (STARID_MAX_IMAGE_PIXELS raises it)"
-        )
-
-
-def read_image(path: PathLike) -> npt.NDArray[Any]:
-    """Read an image file as a 2-D array (H, W): uint8 or uint16 as stored, float32 otherwise
-    (colour converted to luminance): PNG, JPEG, TIFF (8 or 16 bit) through Pillow, FITS through
-    astropy (``pip install 'starid-solver[fits]'``; the first image HDU).
-
-    A file that is not a regular file, is over :data:`~starid._files.MAX_FILE_BYTES` or
-    :data:`MAX_IMAGE_PIXELS`, or cannot be decoded (truncated, corrupt, a decompression bomb)
-    raises InvalidInputError naming it, never the reader's own exception."""
-    p = checked_input(path, "image")
-    name = p.name.lower()
-    if name.endswith(_FITS_SUFFIXES):
-        try:
-            from astropy.io import fits  # type: ignore[import-untyped,import-not-found,unused-ignore]
-        except ImportError:
-            raise ImportError("reading FITS images needs astropy: pip install 'starid-solver[fits]'") from None
-        try:
-            # The file is ours to close (astropy's handle would live on in a traceback).
-            with open(p, "rb") as fh, fits.open(fh, memmap=False) as hdus:
-                data = None
-                for h in hdus:
-                    shape = [int(h.header.get(f"NAXIS{k}", 0)) for k in range(1, int(h.header.get("NAXIS", 0)) + 1)]
-                    if len(shape) >= 2 and all(n > 0 for n in shape):
-                        _check_pixels(p, shape[0], int(np.prod(shape[1:])))
-                        data = np.asarray(h.data)
-                        break
-        except InvalidInputError:
-            raise
-        except Exception as e:  # astropy raises OSError, TypeError, ValueError... for broken files
-            raise InvalidInputError(f"{p}: not a readable FITS file ({type(e).__name__}: {e})") from None
-        if data is None:
-            raise InvalidInputError(f"{p}: holds no image")
-        return _as_image(data, str(p))
-    if p.suffix.lower() in _PIL_SUFFIXES:
-        try:
-            from PIL import Image
-        except ImportError:
-            raise ImportError("reading PNG/JPEG/TIFF images needs Pillow: pip install Pillow") from None
-        try:
-            with warnings.catch_warnings():
-                # Our own pixel limit stands in for Pillow's decompression-bomb warning.
-                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                with Image.open(p) as im:
-                    _check_pixels(p, *im.size)
-                    # Colour to luminance in Pillow, straight to float32: no copy of the
-                    # colour planes (weights as `_as_image` takes them from an array).
-                    arr = np.asarray(im.convert("F") if im.mode in _PIL_COLOUR_MODES else im)
-        except InvalidInputError:
-            raise
-        except Exception as e:  # Pillow raises OSError, ValueError, DecompressionBombError, SyntaxError...
-            raise InvalidInputError(f"{p}: not a readable image ({type(e).__name__}: {e})") from None
-        return _as_image(arr, str(p))
-    raise InvalidInputError(f"{p}: unsupported image format {p.suffix or '(none)'}: PNG, JPEG, TIFF or FITS")
-
-
-#: Pillow modes read as luminance (ITU-R 601 weights, as Pillow converts them).
-_PIL_COLOUR_MODES = ("RGB", "RGBA", "RGBX", "P", "PA", "LA", "CMYK", "YCbCr")
-
-#: Luminance weights of red, green and blue (ITU-R 601, Pillow's "L" and "F" conversion).
-LUMA_WEIGHTS = (0.299, 0.587, 0.114)
-
-#: Pixel types the core reads in place; other real types are converted to float32.
-_NATIVE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
-
-
-def _as_image(arr: Any, name: str = "image") -> npt.NDArray[Any]:
-    """A 2-D image from an array: (H, W), or (H, W, 3|4) colour → luminance (float32). uint8,
-    uint16 and float32 stay as they are (the core reads them in place); other real types
-    become float32."""
-    a = np.asarray(arr)
-    if a.ndim == 3 and a.shape[2] in (3, 4):
-        a = a[:, :, :3].astype(np.float32) @ np.array(LUMA_WEIGHTS, dtype=np.float32)
-    if a.ndim != 2:
-        raise InvalidInputError(f"{name} must be a 2-D image (H, W) or colour (H, W, 3), got shape {a.shape}")
-    if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
-        raise InvalidInputError(f"{name} must hold real numbers, got {a.dtype}")
-    img = np.ascontiguousarray(a, dtype=a.dtype if a.dtype in _NATIVE_DTYPES else np.float32)
-    if img.shape[0] < 3 or img.shape[1] < 3:
-        raise InvalidInputError(f"{name} must be at least 3 x 3 pixels, got {img.shape}")
-    if img.dtype == np.float32 and not np.isfinite(img).any():
-        raise InvalidInputError(f"{name} holds no finite pixel")
-    return img
-
-
-def _load(image: Any) -> npt.NDArray[Any]:
-    if isinstance(image, (str, os.PathLike)):
-        return read_image(image)
-    return _as_image(image)
 
 
 def extract_centroids(
@@ -286,8 +175,6 @@ def identify_image(
     :func:`extract_centroids` settings; other arguments as :func:`starid.identify`
     (``fov_deg`` omitted: searched in ``fov_range_deg``).
     """
-    from ._identify import identify
-
     c = extract_centroids(image, dark=dark, flat=flat, **(extract or {}))
     size = kwargs.pop("image_size", None)
     if size is not None and tuple(float(v) for v in size) != c.image_size:
@@ -295,9 +182,9 @@ def identify_image(
     kwargs.setdefault("mag_offset", None)
     mags = c.magnitudes if np.isfinite(c.magnitudes).all() else None
     if kwargs.get("camera") is not None:
-        res = identify(c.xy, catalog, magnitudes=mags, **kwargs)
+        res = identify_centroids(c.xy, catalog, None, None, mags, **kwargs)
     else:
-        res = identify(c.xy, catalog, fov_deg, c.image_size, magnitudes=mags, **kwargs)
+        res = identify_centroids(c.xy, catalog, fov_deg, c.image_size, mags, **kwargs)
         if fov_deg is not None and rough_field_applies(res, fov_deg, kwargs):
             again = identify_rough_field(catalog, [c.xy], [mags], c.image_size, float(fov_deg), settings_of(kwargs), None)[0]
             res = res if again is None else again
@@ -371,5 +258,3 @@ def simulate_image(
     # The renderer's values are whole numbers within the bit depth: the integer type is exact.
     return img.astype(np.uint8 if int(bits) == 8 else np.uint16), frame
 
-
-_is_image = _identify_module._is_image

@@ -20,10 +20,11 @@ from typing import Any, Optional, Union
 import numpy as np
 import numpy.typing as npt
 
-from ._catalog import resolve_catalog_of
+from ._catalog import CatalogLike, resolve_catalog_of
 from ._errors import InvalidInputError
 from ._files import write_atomically
-from ._identify import CatalogLike, Identification
+from ._args import Identification
+from ._read import _load
 
 __all__ = ["annotate", "sky_to_pixel"]
 
@@ -92,16 +93,15 @@ def annotate(
         from matplotlib.patches import Circle
     except ImportError as e:
         raise ImportError("starid.plot needs matplotlib: pip install 'starid-solver[plot]'") from None
-    from .images import ImageIdentification, _load
-
     img = _load(image)
     h, w = img.shape
-    if isinstance(result, ImageIdentification):
-        ident, spots = result.identification, result.centroids.xy
-    elif isinstance(result, Identification):
+    if isinstance(result, Identification):
         if xy is None:
             raise InvalidInputError("an Identification needs the spots it identified: pass xy=")
         ident, spots = result, np.asarray(xy, dtype=np.float64)
+    elif isinstance(getattr(result, "identification", None), Identification) and hasattr(result, "centroids"):
+        # An ImageIdentification (starid.images): the identification and its spots.
+        ident, spots = result.identification, result.centroids.xy
     else:
         raise InvalidInputError(f"result must be an ImageIdentification or an Identification, got {type(result).__name__}")
     if spots.ndim != 2 or spots.shape[1] != 2 or len(spots) != len(ident.ids):

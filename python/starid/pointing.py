@@ -35,7 +35,7 @@ import numpy.typing as npt
 from . import _starid
 from ._errors import InvalidInputError
 from ._catalog import Catalog, resolve_catalog, resolve_catalog_of
-from ._identify import Identification, _image_size, _xy
+from ._args import Camera, Identification, _image_size, _xy
 
 __all__ = [
     "BoresightSolution",
@@ -216,8 +216,6 @@ def _focal_guess(focal_px: Optional[float], fov_deg: Optional[float], width: flo
     if focal_px is not None and fov_deg is not None:
         raise InvalidInputError("give focal_px or fov_deg, not both")
     if fov_deg is not None:
-        from ._identify import Camera
-
         return float(Camera((width, width), float(fov_deg)).focal_length_px)
     return None if focal_px is None else float(focal_px)
 

@@ -31,9 +31,10 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _starid
-from ._catalog import resolve_catalog, resolve_catalog_for
+from ._catalog import CatalogLike, resolve_catalog, resolve_catalog_for
 from ._errors import InvalidInputError
-from ._identify import CatalogLike, Frame, Identification, _camera, _config, _frame, _magnitudes, _whole, _xy
+from ._args import Identification, _camera, _config, _invalid, _magnitudes, _whole, _xy
+from ._simulate import Frame, _frame
 
 __all__ = ["SequenceFrame", "TrackStep", "Tracker", "simulate_sequence", "track"]
 
@@ -227,8 +228,6 @@ def track(
         try:
             out.append(tracker.update(f, t, magnitudes=None if magnitudes is None else magnitudes[i]))
         except ValueError as e:
-            from ._identify import _invalid
-
             n = len(f) if isinstance(f, Sized) else 0
             out.append(TrackStep(float("nan"), _invalid(f"frame {i}: {e}", n), "lost_in_space", None, float("nan"), None))
     return out

@@ -19,6 +19,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from ._args import Camera
 from ._errors import InvalidInputError
 
 __all__ = ["wcs", "wcs_header"]
@@ -121,8 +122,6 @@ def _sip_fitted(f: float, cx: float, cy: float, k1: float, higher: tuple[float, 
     ``AP``/``BP`` back, of the lowest order in :data:`SIP_FIT_ORDERS` that is within
     :data:`SIP_FIT_TOLERANCE_PX` of the model (the highest otherwise), in the image's own pixels
     (a mirrored frame's x reversed)."""
-    from ._identify import Camera
-
     k2, k3, p1, p2 = higher
     cam_cx = w - cx if mirrored else cx
     cam = Camera((w, h), focal_length_px=f, principal_point=(cam_cx, cy), k1=k1, k2=k2, k3=k3, p1=p1, p2=p2)
