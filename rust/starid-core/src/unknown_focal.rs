@@ -1,9 +1,12 @@
 //! Identification when the focal length (field of view) is known only to lie in a range.
 //!
 //! # Algorithm
-//! 1. Triangles of the brightest observed stars are visited in Pyramid order. Each triangle's
-//!    shortest side is its *base*: over the focal range it subtends an interval of angles, and
-//!    the k-vector returns every catalogue pair in that interval.
+//! 1. Triangles of the brightest observed stars are visited by their *base*, their shortest
+//!    side, shortest first: over the focal range a base subtends an interval of angles, and the
+//!    k-vector returns every catalogue pair in that interval, visited once for all the
+//!    triangles the base is the shortest side of. The triangles of the four brightest stars
+//!    come first where their bases are cheap enough: where spots that are not stars lie close
+//!    together, the short bases are theirs.
 //! 2. A catalogue pair `(A, B)` for the base fixes the focal length: the `f` at which the two
 //!    pixel rays subtend `∠AB` (a quadratic in `f²`, [`focal_for_angle`]). With `f` and the two
 //!    stars the attitude follows (TRIAD), which predicts where the triangle's third star is on
@@ -63,6 +66,12 @@ const CONFIRM_CHANCE: f64 = 1e-3;
 
 /// Catalogue pairs examined for triangle bases before the search gives up (about a second).
 const MAX_BASE_PAIRS: usize = 1_000_000;
+
+/// Brightest stars whose triangles are tried first.
+const PRELUDE_STARS: usize = 4;
+
+/// Catalogue pairs those triangles' bases may take (at most half the search's budget).
+const PRELUDE_PAIRS: usize = 50_000;
 
 /// Brightest stars that may confirm a triangle.
 const CONFIRM_STARS: usize = 24;
@@ -218,106 +227,112 @@ impl Solver {
         };
         let mut hypotheses_total = 0usize;
         let mut status = Status::NoMatch;
-        // Triangles of the brightest stars, shortest base first: a short base has few catalogue
-        // pairs in its angle interval, so a triangle costs little to try.
+        // Bases (pairs of the brightest stars), shortest first: a short base has few catalogue
+        // pairs in its angle interval, so it costs little to try. Each base's catalogue pairs are
+        // visited once for every triangle it is the shortest side of.
         let m = top.len();
-        let mut triangles: Vec<[usize; 3]> = Vec::new();
-        for c in 2..m {
-            for b in 1..c {
-                for a in 0..b {
-                    triangles.push([top[a], top[b], top[c]]);
+        let dist = |x: usize, y: usize| (off[x] - off[y]).norm();
+        let mut bases: Vec<(f64, usize, usize, Vec<usize>)> = Vec::new();
+        for b in 1..m {
+            for a in 0..b {
+                let (p, q) = (top[a], top[b]);
+                let base = dist(p, q);
+                let thirds: Vec<usize> = top
+                    .iter()
+                    .copied()
+                    .filter(|&r| r != p && r != q && dist(p, r) >= base && dist(q, r) >= base)
+                    .collect();
+                if !thirds.is_empty() {
+                    bases.push((base, p, q, thirds));
                 }
             }
         }
-        let base_len = |t: &[usize; 3]| {
-            let d = |x: usize, y: usize| (off[x] - off[y]).norm();
-            d(t[0], t[1]).min(d(t[1], t[2])).min(d(t[0], t[2]))
-        };
-        triangles.sort_by(|x, y| base_len(x).total_cmp(&base_len(y)));
+        bases.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let bases: Vec<(usize, usize, Vec<usize>, bool)> = bases
+            .into_iter()
+            .map(|(_, p, q, thirds)| (p, q, thirds, true))
+            .collect();
+        let budget = config.max_pairs_visited.min(MAX_BASE_PAIRS);
         'search: for &sigma in &ladder {
             search.sigma = sigma;
-            for &tri in &triangles {
+            let prelude = search.prelude(&top[..m.min(PRELUDE_STARS)], budget);
+            for (p, q, thirds, charge) in prelude.iter().chain(&bases) {
                 if stop_now(deadline, config.cancel.as_ref()) {
                     status = Status::Timeout;
                     break 'search;
                 }
-                if search.base_pairs > config.max_pairs_visited.min(MAX_BASE_PAIRS) {
+                if search.base_pairs > budget {
                     status = Status::SearchLimit;
                     break 'search;
                 }
-                {
-                    {
-                        let others: Vec<usize> = confirm_pool
-                            .iter()
-                            .copied()
-                            .filter(|s| !tri.contains(s))
-                            .collect();
-                        for f in search.triangle(tri, &others) {
-                            if search.tried.len() >= MAX_FOCAL_HYPOTHESES {
-                                status = Status::SearchLimit;
-                                break 'search;
+                let mut from = Some(0);
+                while let Some(at) = from {
+                    let (found, next) = search.base((*p, *q), thirds, confirm_pool, at, *charge);
+                    from = next;
+                    for f in found {
+                        if search.tried.len() >= MAX_FOCAL_HYPOTHESES {
+                            status = Status::SearchLimit;
+                            break 'search;
+                        }
+                        if search.tried.iter().any(|&t| (t - f).abs() < 2e-3 * f) {
+                            continue;
+                        }
+                        search.tried.push(f);
+                        if stop_now(deadline, config.cancel.as_ref()) {
+                            status = Status::Timeout;
+                            break 'search;
+                        }
+                        // Each focal length's search within what is left of the time.
+                        let per_call = IdentifyConfig {
+                            timeout: deadline.map(|d| d.saturating_duration_since(Instant::now())),
+                            ..per_call.clone()
+                        };
+                        let camera = Camera::from_focal_length(f, width_px, height_px)?;
+                        let (done, hyps) =
+                            self.finish(centroids, magnitudes, camera, None, &per_call)?;
+                        hypotheses_total += hyps;
+                        if let Some((mut id, mut camera, fit)) = done {
+                            // The focal check of a known camera, on the camera found: an
+                            // unknown radial distortion leaves a pattern the focal length
+                            // alone cannot fit (see `identify::scale`), even where every
+                            // spot is named (the focal length then absorbs what it can).
+                            if config.focal_check && id.verified {
+                                let call = Call {
+                                    centroids,
+                                    magnitudes,
+                                    camera: &camera,
+                                    config,
+                                    start,
+                                };
+                                self.check_focal(call, &mut id)?;
+                                if let Some(f) = id.focal_length_px {
+                                    camera.focal_length_px = f;
+                                    camera = camera.with_k1(id.k1.unwrap_or(camera.k1))?;
+                                }
                             }
-                            if search.tried.iter().any(|&t| (t - f).abs() < 2e-3 * f) {
+                            // The union bound over every hypothesis of the search: the
+                            // catalogue triangles closed at some focal length as well as
+                            // those of each focal length's identification (a focal length
+                            // chosen to fit a triangle makes its own identification's
+                            // count of one no bound at all).
+                            let tail = id.false_match_probability / id.hypotheses.max(1) as f64;
+                            let counted = (search.closed + hypotheses_total)
+                                .max(search.tried.len())
+                                .max(1);
+                            id.hypotheses = hypotheses_total;
+                            id.false_match_probability = (tail * counted as f64).min(1.0);
+                            if id.false_match_probability > config.max_false_match_prob {
                                 continue;
                             }
-                            search.tried.push(f);
-                            if stop_now(deadline, config.cancel.as_ref()) {
-                                status = Status::Timeout;
-                                break 'search;
-                            }
-                            // Each focal length's search within what is left of the time.
-                            let per_call = IdentifyConfig {
-                                timeout: deadline
-                                    .map(|d| d.saturating_duration_since(Instant::now())),
-                                ..per_call.clone()
-                            };
-                            let camera = Camera::from_focal_length(f, width_px, height_px)?;
-                            let (done, hyps) =
-                                self.finish(centroids, magnitudes, camera, None, &per_call)?;
-                            hypotheses_total += hyps;
-                            if let Some((mut id, mut camera, fit)) = done {
-                                // The focal check of a known camera, on the camera found: an
-                                // unknown radial distortion leaves a pattern the focal length
-                                // alone cannot fit (see `identify::scale`), even where every
-                                // spot is named (the focal length then absorbs what it can).
-                                if config.focal_check && id.verified {
-                                    let call = Call {
-                                        centroids,
-                                        magnitudes,
-                                        camera: &camera,
-                                        config,
-                                        start,
-                                    };
-                                    self.check_focal(call, &mut id)?;
-                                    if let Some(f) = id.focal_length_px {
-                                        camera.focal_length_px = f;
-                                        camera = camera.with_k1(id.k1.unwrap_or(camera.k1))?;
-                                    }
-                                }
-                                // The union bound over every hypothesis of the search: the
-                                // catalogue triangles closed at some focal length as well as
-                                // those of each focal length's identification (a focal length
-                                // chosen to fit a triangle makes its own identification's
-                                // count of one no bound at all).
-                                let tail = id.false_match_probability / id.hypotheses.max(1) as f64;
-                                let counted = (search.closed + hypotheses_total)
-                                    .max(search.tried.len())
-                                    .max(1);
-                                id.hypotheses = hypotheses_total;
-                                id.false_match_probability = (tail * counted as f64).min(1.0);
-                                if id.false_match_probability > config.max_false_match_prob {
-                                    continue;
-                                }
-                                id.elapsed = start.elapsed();
-                                id.noise_source = crate::identify::NoiseSource::of(config, &id);
-                                return Ok(FocalIdentification {
-                                    identification: id,
-                                    camera: Some(camera),
-                                    fit: Some(fit),
-                                    focal_hypotheses: search.tried.len(),
-                                    base_pairs: search.base_pairs,
-                                });
-                            }
+                            id.elapsed = start.elapsed();
+                            id.noise_source = crate::identify::NoiseSource::of(config, &id);
+                            return Ok(FocalIdentification {
+                                identification: id,
+                                camera: Some(camera),
+                                fit: Some(fit),
+                                focal_hypotheses: search.tried.len(),
+                                base_pairs: search.base_pairs,
+                            });
                         }
                     }
                 }
@@ -435,34 +450,95 @@ impl FocalSearch<'_> {
         crate::geometry::angle_between(&Vector3::new(a.x, a.y, f), &Vector3::new(b.x, b.y, f))
     }
 
-    /// Focal lengths confirmed by triangle `tri` and one of `others`.
-    fn triangle(&mut self, tri: [usize; 3], others: &[usize]) -> Vec<f64> {
-        let d = |a: usize, b: usize| (self.off[a] - self.off[b]).norm();
-        let edges = [
-            (tri[0], tri[1], tri[2]),
-            (tri[1], tri[2], tri[0]),
-            (tri[0], tri[2], tri[1]),
-        ];
-        let &(p, q, r) = edges
-            .iter()
-            .min_by(|x, y| d(x.0, x.1).total_cmp(&d(y.0, y.1)))
-            .expect("three edges");
-        let base = d(p, q);
-        if base < 3.0 * self.sigma {
-            return Vec::new();
-        }
+    /// The catalogue pairs (index positions) whose angle base `(p, q)` may subtend at a focal
+    /// length of the range.
+    fn base_range(&self, p: usize, q: usize) -> std::ops::Range<usize> {
         let (f_lo, f_hi) = self.f_range;
         let eps = 3.0 * std::f64::consts::SQRT_2 * self.sigma / f_lo;
         let lo = self.angle_at(p, q, f_hi) - eps;
         let hi = self.angle_at(p, q, f_lo) + eps;
+        let vectors = self.solver.catalog().vectors();
+        (self.solver.pair_index()).range_exact(&AngleWindow::new(lo.max(0.0), hi), vectors)
+    }
+
+    /// The triangles of the `brightest` spots, by their bases, cheapest first, as many as
+    /// [`PRELUDE_PAIRS`] (at most half of `budget`) scans once (charged to the search): a frame
+    /// whose few brightest spots are stars is found from them even where spots that are not
+    /// stars lie close together and hold the short bases.
+    fn prelude(
+        &mut self,
+        brightest: &[usize],
+        budget: usize,
+    ) -> Vec<(usize, usize, Vec<usize>, bool)> {
+        let mut bases: Vec<(usize, usize, usize)> = Vec::new();
+        for (i, &p) in brightest.iter().enumerate() {
+            for &q in &brightest[i + 1..] {
+                if (self.off[p] - self.off[q]).norm() >= 3.0 * self.sigma {
+                    bases.push((self.base_range(p, q).len(), p, q));
+                }
+            }
+        }
+        bases.sort_unstable();
+        let cap = PRELUDE_PAIRS.min(budget / 2);
+        let mut spent = 0;
+        let mut out = Vec::new();
+        for (cost, p, q) in bases {
+            if spent + cost > cap {
+                break;
+            }
+            spent += cost;
+            let thirds = brightest
+                .iter()
+                .copied()
+                .filter(|&r| r != p && r != q)
+                .collect();
+            out.push((p, q, thirds, false));
+        }
+        self.base_pairs += spent;
+        out
+    }
+
+    /// Focal lengths confirmed by a triangle of base `(p, q)` and a third star among `thirds`,
+    /// and a fourth among the other spots of `pool`: the base's catalogue pairs from the
+    /// `from`-th on, up to the first that confirms some focal length. Returns those focal
+    /// lengths and where to go on from (None: the base is done).
+    fn base(
+        &mut self,
+        (p, q): (usize, usize),
+        thirds: &[usize],
+        pool: &[usize],
+        from: usize,
+        charge: bool,
+    ) -> (Vec<f64>, Option<usize>) {
+        let d = |a: usize, b: usize| (self.off[a] - self.off[b]).norm();
+        let base = d(p, q);
+        if base < 3.0 * self.sigma {
+            return (Vec::new(), None);
+        }
+        let (f_lo, f_hi) = self.f_range;
         let index = self.solver.pair_index();
         let catalog = self.solver.catalog();
         let vectors = catalog.vectors();
-        let range = index.range_exact(&AngleWindow::new(lo.max(0.0), hi), vectors);
-        self.base_pairs += range.len();
-        let reach = (d(p, r) + d(q, r)) / base;
+        let range = self.base_range(p, q);
+        if from == 0 && charge {
+            // The budget counts a catalogue pair once for each triangle it is tried in.
+            self.base_pairs += range.len() * thirds.len();
+        }
+        // Per third star: how far the base's focal error carries, and the spots that may confirm.
+        let thirds: Vec<(usize, f64, Vec<usize>)> = thirds
+            .iter()
+            .map(|&r| {
+                let others = pool
+                    .iter()
+                    .copied()
+                    .filter(|&s| s != p && s != q && s != r)
+                    .collect();
+                (r, (d(p, r) + d(q, r)) / base, others)
+            })
+            .collect();
         let mut found = Vec::new();
-        for (k, pair) in index.pairs(range).enumerate() {
+        let first = (range.start + from).min(range.end);
+        for (k, pair) in (from..).zip(index.pairs(first..range.end)) {
             // (The search's loop reports the stop.)
             if k % STOP_CHECK_PAIRS == STOP_CHECK_PAIRS - 1 && stop_now(self.stop.0, self.stop.1) {
                 break;
@@ -478,38 +554,44 @@ impl FocalSearch<'_> {
             if f < f_lo || f > f_hi {
                 continue;
             }
-            // Predicted third star: noise on three stars plus the base's focal error carried out.
-            let radius = 3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach) / f;
             for (ca, cb) in [(pair[0], pair[1]), (pair[1], pair[0])] {
                 let (va, vb) = (&vectors[ca as usize], &vectors[cb as usize]);
                 for mirrored in [false, true] {
                     if mirrored && !self.mirror_too {
                         continue;
                     }
-                    let (rp, rq, rr) = (
-                        self.ray(p, f, mirrored),
-                        self.ray(q, f, mirrored),
-                        self.ray(r, f, mirrored),
-                    );
+                    let (rp, rq) = (self.ray(p, f, mirrored), self.ray(q, f, mirrored));
                     let Some(rot) = crate::attitude::triad(&rp, &rq, va, vb) else {
                         continue;
                     };
-                    let predicted = rot.inverse_transform_vector(&rr);
-                    let (Some((cc, _)), _) = catalog.nearest_two(&predicted, Radius::new(radius))
-                    else {
-                        continue;
-                    };
-                    if cc == ca || cc == cb {
-                        continue;
-                    }
-                    self.closed += 1;
-                    if let Some(f3) = self.confirm([p, q, r], [ca, cb, cc], f, mirrored, others) {
-                        found.push(f3);
+                    for (r, reach, others) in &thirds {
+                        // Predicted third star: noise on three stars plus the base's focal
+                        // error carried out.
+                        let radius =
+                            3.0 * std::f64::consts::SQRT_2 * self.sigma * (1.0 + reach) / f;
+                        let predicted = rot.inverse_transform_vector(&self.ray(*r, f, mirrored));
+                        let (Some((cc, _)), _) =
+                            catalog.nearest_two(&predicted, Radius::new(radius))
+                        else {
+                            continue;
+                        };
+                        if cc == ca || cc == cb {
+                            continue;
+                        }
+                        self.closed += 1;
+                        if let Some(f3) =
+                            self.confirm([p, q, *r], [ca, cb, cc], f, mirrored, others)
+                        {
+                            found.push(f3);
+                        }
                     }
                 }
             }
+            if !found.is_empty() {
+                return (found, Some(k + 1));
+            }
         }
-        found
+        (found, None)
     }
 
     /// Refine `f` over the closed triangle and look for a fourth star among `others`.

@@ -115,3 +115,78 @@ fn a_focal_length_chosen_to_fit_a_triangle_counts_every_triangle_tried() {
         assert!(!id.is_identified(), "{points:?}");
     }
 }
+
+#[test]
+fn a_frame_whose_brightest_spots_are_stars_is_found_beside_a_cluster_of_false_spots() {
+    // A 6° frame whose four brightest spots are stars (two of them within 300 px), and six spots
+    // that are not stars crowded within 150 px (a nebula's knots, a planet's glare), as bright as
+    // its fifth to eighth stars. The cluster holds the short bases, whose triangles take the
+    // budget (4 of these 12 frames found without the four brightest spots' triangles first).
+    let catalog =
+        std::sync::Arc::new(starid_core::simulate::random_catalog(30_000, 1.0, 7.0, 3).unwrap());
+    let (w, h) = (1392.0, 1040.0);
+    let widest = Camera::from_fov(8f64.to_radians(), w, h).unwrap();
+    let narrowest = Camera::from_fov(4f64.to_radians(), w, h).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &widest).unwrap();
+    let range = (widest.focal_length_px, narrowest.focal_length_px);
+    let camera = Camera::from_fov(6f64.to_radians(), w, h).unwrap();
+    let config = IdentifyConfig {
+        max_pairs_visited: 100_000,
+        ..IdentifyConfig::default()
+    };
+    let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+    let (mut frames, mut identified) = (0, 0);
+    for seed in 0..200u64 {
+        if frames == 12 {
+            break;
+        }
+        let sim = SimConfig {
+            noise_px: 0.3,
+            mag_limit: Some(7.0),
+            ..Default::default()
+        };
+        let f = simulate(&catalog, &camera, &sim, seed).unwrap();
+        let mut order: Vec<usize> = (0..f.centroids.len()).collect();
+        order.sort_by(|&a, &b| f.magnitudes[a].total_cmp(&f.magnitudes[b]));
+        // Two of the four brightest stars within 300 px: a base the budget affords.
+        let near = |a: usize, b: usize| {
+            let (p, q) = (f.centroids[order[a]], f.centroids[order[b]]);
+            (p[0] - q[0]).hypot(p[1] - q[1]) < 300.0
+        };
+        if order.len() < 5 || !(0..4).any(|a| (a + 1..4).any(|b| near(a, b))) {
+            continue;
+        }
+        frames += 1;
+        let (m4, m8) = (
+            f.magnitudes[order[3]],
+            f.magnitudes[order[7.min(order.len() - 1)]],
+        );
+        let mut xy = f.centroids.clone();
+        let mut mags = f.magnitudes.clone();
+        let mut truth = f.catalog_index.clone();
+        let centre = [
+            rng.random_range(200.0..w - 200.0),
+            rng.random_range(200.0..h - 200.0),
+        ];
+        for k in 0..6 {
+            xy.push([
+                centre[0] + rng.random_range(-75.0..75.0),
+                centre[1] + rng.random_range(-75.0..75.0),
+            ]);
+            mags.push(m4 + (m8 - m4) * (k as f64 + 0.5) / 6.0);
+            truth.push(None);
+        }
+        let r = solver
+            .identify_unknown_focal(&xy, Some(&mags), w, h, range, &config)
+            .unwrap();
+        let id = &r.identification;
+        for (got, want) in id.catalog_index.iter().zip(&truth) {
+            assert!(
+                got.is_none() || got == want,
+                "seed {seed}: {got:?} for {want:?}"
+            );
+        }
+        identified += usize::from(id.is_identified());
+    }
+    assert!(frames == 12 && identified >= 9, "{identified} of {frames}");
+}
