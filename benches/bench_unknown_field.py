@@ -25,6 +25,7 @@ def main() -> None:
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--bands", type=float, nargs="+", default=[4, 8, 8, 25, 25, 50])
     p.add_argument("--false-stars", type=int, default=0)
+    p.add_argument("--timeout-s", type=float, default=None, help="a time limit per frame (timeout_s)")
     args = p.parse_args()
     truth = starid.Catalog.deep(9.0)
     size = (1024, 768)
@@ -39,7 +40,9 @@ def main() -> None:
                 false_stars=args.false_stars,
             )
             t0 = time.perf_counter()
-            res = starid.identify(f.xy, image_size=size, magnitudes=f.magnitudes + 3.0, mag_offset=None)
+            res = starid.identify(
+                f.xy, image_size=size, magnitudes=f.magnitudes + 3.0, mag_offset=None, timeout_s=args.timeout_s
+            )
             times.append(time.perf_counter() - t0)
             named = res.ids >= 0
             wrong += int(np.count_nonzero(named & (res.ids != f.true_ids)))
