@@ -12,11 +12,11 @@ The two bundled catalogues:
 
     python catalog/make_hipparcos_catalog.py                  # Hp <= 6.5, compiled into the core
     python catalog/make_hipparcos_catalog.py --mag-limit 11 \
-        --output python/starid/data/hipparcos_hp11_j2000.npz   # Hp <= 11, for narrow fields
+        --output rust/starid-core/data/hipparcos_hp11_j2000.bin   # Hp <= 11, for narrow fields
 
-An ``.npz`` output holds ``id`` (int32 HIP), ``ra_mas`` and ``dec_mas`` (int32, milliarcseconds,
-rounded: the catalogue's own precision) and ``mag_mmag`` (int16, millimagnitudes): 14 bytes a star
-before compression.
+A ``.bin`` output, compiled into the core too, is the magic ``STARIDHP``, the star count (u32),
+then four little-endian columns in HIP order: ``id`` (i32), RA and Dec (i32, milliarcseconds,
+rounded: the catalogue's own precision) and Hp (i16, millimagnitudes), 14 bytes a star.
 """
 
 from __future__ import annotations
@@ -39,17 +39,14 @@ def main() -> None:
     args = p.parse_args()
     cat = starid.Catalog.hipparcos(mag_limit=args.mag_limit, epoch=args.epoch)
     order = sorted(range(len(cat)), key=lambda i: int(cat.ids[i]))
-    if args.output.suffix == ".npz":
+    if args.output.suffix == ".bin":
         idx = np.asarray(order)
-        np.savez_compressed(
-            args.output,
-            id=cat.ids[idx].astype(np.int32),
-            ra_mas=np.rint(cat.ra_deg[idx] * 3.6e6).astype(np.int32),
-            dec_mas=np.rint(cat.dec_deg[idx] * 3.6e6).astype(np.int32),
-            mag_mmag=np.rint(cat.mag[idx] * 1000).astype(np.int16),
-            description=np.array(f"Hipparcos 2 (ESA I/311) stars with Hp <= {args.mag_limit:g}, ICRS at epoch J{args.epoch:g}; "
-                                 "id = HIP number, mag = Hp. Made by catalog/make_hipparcos_catalog.py"),
-        )
+        with open(args.output, "wb") as f:
+            f.write(b"STARIDHP" + np.uint32(len(idx)).astype("<u4").tobytes())
+            f.write(cat.ids[idx].astype("<i4").tobytes())
+            f.write(np.rint(cat.ra_deg[idx] * 3.6e6).astype("<i4").tobytes())
+            f.write(np.rint(cat.dec_deg[idx] * 3.6e6).astype("<i4").tobytes())
+            f.write(np.rint(cat.mag[idx] * 1000).astype("<i2").tobytes())
         print(f"wrote {len(cat)} stars to {args.output}")
         return
     with open(args.output, "w", encoding="utf-8", newline="\n") as f:

@@ -117,6 +117,29 @@ def test_simulated_images_are_identified_end_to_end(bundled: starid.Catalog) -> 
         assert starid.identify(img, bundled, 12.0).ok
 
 
+@pytest.mark.parametrize("mode", ["L", "I;16", "LA", "RGB", "RGBA", "P"])
+def test_png_files_read_as_pillow_reads_them(tmp_path: Path, mode: str) -> None:
+    # The core decodes PNG itself: grey as stored, colour as Pillow's luminance ("F").
+    from PIL import Image
+
+    rng = np.random.default_rng(3)
+    if mode == "I;16":
+        im = Image.fromarray(rng.integers(0, 65536, (37, 53), dtype=np.uint16))
+    else:
+        im = Image.fromarray(rng.integers(0, 256, (37, 53, 3), dtype=np.uint8), "RGB").convert(mode)
+    p = tmp_path / "f.png"
+    im.save(p)
+    got = starid.read_image(p)
+    # (The core's own decoder, not Pillow's, which read_image falls back on.)
+    np.testing.assert_array_equal(starid._starid.read_png(str(p), 10**6), got)
+    with Image.open(p) as back:
+        grey = back.mode in ("L", "I;16", "LA")
+        want = np.asarray(back.getchannel(0) if back.mode == "LA" else back if grey else back.convert("F"))
+    assert got.shape == (37, 53)
+    assert got.dtype == (want.dtype if grey else np.float32)
+    np.testing.assert_allclose(got, want, atol=1e-3)
+
+
 def test_image_files(tmp_path: Path, bundled: starid.Catalog) -> None:
     from PIL import Image
 

@@ -24,9 +24,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 _default: Optional["Catalog"] = None
-# The bundled deep catalogues by magnitude limit, each cut once from the Hp <= 11 file.
+# The bundled deep catalogues by magnitude limit, each cut once from the core's Hp <= 11 table.
 _deep: "dict[float, Catalog]" = {}
-_DEEP_FILE = "hipparcos_hp11_j2000.npz"
 _DEEP_NAME = re.compile(r"Hipparcos Hp<=([0-9.]+) J2000 \(bundled\)")
 
 #: The magnitude limits of the bundled catalogues ``catalog=None`` chooses among, shallowest
@@ -261,22 +260,10 @@ class Catalog:
             limit = float(mag_limit)
         except (TypeError, ValueError):
             raise InvalidInputError(f"mag_limit must be a number, got {mag_limit!r}") from None
-        if not -2.0 <= limit <= BUNDLED_DEPTHS[-1]:
-            raise InvalidInputError(
-                f"the bundled catalogue goes to Hp {BUNDLED_DEPTHS[-1]:g}: mag_limit must be in [-2, 11], got {mag_limit!r}"
-            )
         hit = _deep.get(limit)
         if hit is not None:
             return hit
-        z = _bundled_arrays()
-        keep = z["mag_mmag"] <= round(limit * 1000)
-        cat = cls(
-            z["id"][keep].astype(np.int64),
-            z["ra_mas"][keep] / 3.6e6,
-            z["dec_mas"][keep] / 3.6e6,
-            z["mag_mmag"][keep] / 1000.0,
-            name=f"Hipparcos Hp<={limit:g} J2000 (bundled)",
-        )
+        cat = cls._wrap(_starid.Catalog.bundled_deep(limit), f"Hipparcos Hp<={limit:g} J2000 (bundled)")
         if len(_deep) < 16:
             _deep[limit] = cat
         return cat
@@ -513,19 +500,7 @@ def _bundled_count(limit: float) -> int:
     """How many stars the bundled catalogue to ``limit`` holds (without building it)."""
     if limit == BUNDLED_DEPTHS[0]:
         return len(Catalog.default())
-    return int(np.count_nonzero(_bundled_arrays()["mag_mmag"] <= round(limit * 1000)))
-
-
-def _bundled_arrays() -> "dict[str, npt.NDArray[Any]]":
-    """The bundled deep file's columns, read once."""
-    global _BUNDLED
-    if _BUNDLED is None:
-        with np.load(Path(__file__).parent / "data" / _DEEP_FILE) as z:
-            _BUNDLED = {k: z[k] for k in ("id", "ra_mas", "dec_mas", "mag_mmag")}
-    return _BUNDLED
-
-
-_BUNDLED: "Optional[dict[str, npt.NDArray[Any]]]" = None
+    return int(_starid.Catalog.bundled_deep_len(limit))
 
 # The choice per field (a few camera geometries in a process): identify() pays a dict look-up.
 _FIELD_CHOICE: "dict[tuple[float, float, float], tuple[Catalog, tuple[float, ...]]]" = {}

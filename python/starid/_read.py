@@ -11,6 +11,7 @@ from typing import Any, Union
 import numpy as np
 import numpy.typing as npt
 
+from . import _starid
 from ._errors import InvalidInputError
 from ._files import checked_input
 
@@ -67,6 +68,12 @@ def read_image(path: PathLike) -> npt.NDArray[Any]:
         if data is None:
             raise InvalidInputError(f"{p}: holds no image")
         return _as_image(data, str(p))
+    if p.suffix.lower() == ".png":
+        # The core decodes PNG itself (one pass, grey as stored); what it cannot read, Pillow tries.
+        try:
+            return _as_image(_starid.read_png(os.fspath(p), MAX_IMAGE_PIXELS), str(p))
+        except (InvalidInputError, OSError):
+            pass
     if p.suffix.lower() in _PIL_SUFFIXES:
         try:
             from PIL import Image
@@ -78,9 +85,12 @@ def read_image(path: PathLike) -> npt.NDArray[Any]:
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
                 with Image.open(p) as im:
                     _check_pixels(p, *im.size)
-                    # Colour to luminance in Pillow, straight to float32: no copy of the
-                    # colour planes (weights as `_as_image` takes them from an array).
-                    arr = np.asarray(im.convert("F") if im.mode in _PIL_COLOUR_MODES else im)
+                    # RGB(A) as stored, to luminance in the core (one pass); other colour
+                    # modes to luminance in Pillow, straight to float32.
+                    if im.mode in _PIL_RGB_MODES:
+                        arr = np.asarray(im)
+                    else:
+                        arr = np.asarray(im.convert("F") if im.mode in _PIL_COLOUR_MODES else im)
         except InvalidInputError:
             raise
         except Exception as e:  # Pillow raises OSError, ValueError, DecompressionBombError, SyntaxError...
@@ -92,7 +102,12 @@ def read_image(path: PathLike) -> npt.NDArray[Any]:
 #: Pillow modes read as luminance (ITU-R 601 weights, as Pillow converts them).
 _PIL_COLOUR_MODES = ("RGB", "RGBA", "RGBX", "P", "PA", "LA", "CMYK", "YCbCr")
 
-#: Luminance weights of red, green and blue (ITU-R 601, Pillow's "L" and "F" conversion).
+#: Pillow modes whose 8-bit channels are red, green and blue (and alpha or padding): read as
+#: stored and converted to luminance by the core.
+_PIL_RGB_MODES = ("RGB", "RGBA", "RGBX")
+
+#: Luminance weights of red, green and blue (ITU-R 601, Pillow's "L" and "F" conversion, and
+#: the core's).
 LUMA_WEIGHTS = (0.299, 0.587, 0.114)
 
 #: Pixel types the core reads in place; other real types are converted to float32.
@@ -100,16 +115,17 @@ _NATIVE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
 
 
 def _as_image(arr: Any, name: str = "image") -> npt.NDArray[Any]:
-    """A 2-D image from an array: (H, W), or (H, W, 3|4) colour → luminance (float32). uint8,
-    uint16 and float32 stay as they are (the core reads them in place); other real types
-    become float32."""
+    """A 2-D image from an array: (H, W), or (H, W, 3|4) colour → luminance (float32, in the
+    core). uint8, uint16 and float32 stay as they are (the core reads them in place); other
+    real types become float32."""
     a = np.asarray(arr)
-    if a.ndim == 3 and a.shape[2] in (3, 4):
-        a = a[:, :, :3].astype(np.float32) @ np.array(LUMA_WEIGHTS, dtype=np.float32)
-    if a.ndim != 2:
+    colour = a.ndim == 3 and a.shape[2] in (3, 4)
+    if a.ndim != 2 and not colour:
         raise InvalidInputError(f"{name} must be a 2-D image (H, W) or colour (H, W, 3), got shape {a.shape}")
     if not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
         raise InvalidInputError(f"{name} must hold real numbers, got {a.dtype}")
+    if colour:
+        a = _starid.luminance(a if a.dtype in _NATIVE_DTYPES else a.astype(np.float32))
     img = np.ascontiguousarray(a, dtype=a.dtype if a.dtype in _NATIVE_DTYPES else np.float32)
     if img.shape[0] < 3 or img.shape[1] < 3:
         raise InvalidInputError(f"{name} must be at least 3 x 3 pixels, got {img.shape}")

@@ -41,6 +41,8 @@ __all__ = [
     "quaternion_from_radec_roll",
     "result_columns",
     "extract_centroids",
+    "luminance",
+    "read_png",
     "simulate_image",
     "monte_carlo_distances",
     "predicted_distance_covariance",
@@ -80,6 +82,10 @@ class Catalog:
     def from_table_path(path: Union[str, PathLike[str]]) -> Catalog: ...
     @staticmethod
     def bundled() -> Catalog: ...
+    @staticmethod
+    def bundled_deep(mag_limit: float) -> Catalog: ...
+    @staticmethod
+    def bundled_deep_len(mag_limit: float) -> int: ...
     @staticmethod
     def from_unit_vectors(
         ids: npt.NDArray[np.int64], vectors: npt.NDArray[np.float64], mag: npt.NDArray[np.float64]
@@ -558,6 +564,8 @@ class Tracker:
     @property
     def has_lock(self) -> bool: ...
 def result_columns(results: list[Identification], spots: bool = False) -> dict[str, Any]: ...
+def luminance(image: npt.NDArray[Any]) -> npt.NDArray[np.float32]: ...
+def read_png(path: Union[str, PathLike[str]], max_pixels: int) -> npt.NDArray[Any]: ...
 def extract_centroids(
     image: npt.NDArray[Any],
     threshold_sigma: float = 5.0,

@@ -62,6 +62,7 @@ pub mod extract;
 pub mod geometry;
 pub mod guide;
 pub mod identify;
+pub mod image;
 pub mod kvector;
 pub(crate) mod lsq;
 pub mod pointing;

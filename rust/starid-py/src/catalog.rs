@@ -133,6 +133,20 @@ impl PyCatalog {
         Self::wrap(py.detach(Catalog::bundled))
     }
 
+    /// The Hipparcos stars to `mag_limit` (at most 11) from the deep table compiled into the core.
+    #[staticmethod]
+    fn bundled_deep(py: Python<'_>, mag_limit: f64) -> PyResult<Self> {
+        Ok(Self::wrap(run_core(py, move || {
+            Catalog::bundled_deep(mag_limit)
+        })?))
+    }
+
+    /// How many stars the deep table holds to `mag_limit`.
+    #[staticmethod]
+    fn bundled_deep_len(mag_limit: f64) -> PyResult<usize> {
+        Catalog::bundled_deep_len(mag_limit).map_err(|e| PyStaridError(e).into())
+    }
+
     /// Read a star table (CSV, TSV or whitespace; with or without a header).
     #[staticmethod]
     fn from_table_path(py: Python<'_>, path: PathBuf) -> PyResult<Self> {

@@ -1,7 +1,7 @@
 //! Centroid extraction and the image simulator.
 
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use starid_core::extract::{extract, ExtractConfig};
@@ -37,6 +37,79 @@ fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
             let pixels: Vec<T> = view.iter().copied().collect();
             run_core(py, move || extract(&pixels, w, h, cfg))
         }
+    }
+}
+
+/// The luminance of a colour image (H, W, 3 or 4) of pixel type `T`, as float32 (H, W).
+fn luminance_array<'py, T: starid_core::extract::Pixel + numpy::Element>(
+    py: Python<'py>,
+    image: &PyReadonlyArray3<'py, T>,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let view = image.as_array();
+    let (h, w, c) = view.dim();
+    let grey = match image.as_slice().ok().filter(|_| image.is_c_contiguous()) {
+        Some(pixels) => run_core(py, || starid_core::extract::luminance(pixels, c))?,
+        None => {
+            let pixels: Vec<T> = view.iter().copied().collect();
+            run_core(py, move || starid_core::extract::luminance(&pixels, c))?
+        }
+    };
+    Ok(Array2::from_shape_vec((h, w), grey)
+        .expect("one value a pixel")
+        .into_pyarray(py))
+}
+
+/// A PNG file as a 2-D array: grey as stored (uint8, uint16), colour as its luminance
+/// (float32); over `max_pixels` pixels refused from the header.
+#[pyfunction]
+pub fn read_png(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    max_pixels: usize,
+) -> PyResult<Py<PyAny>> {
+    use starid_core::image::Pixels;
+    let img = run_core(py, move || {
+        let bytes = std::fs::read(&path).map_err(starid_core::Error::from)?;
+        starid_core::image::read_png(&bytes, max_pixels)
+    })?;
+    let shape = (img.height, img.width);
+    let bad = |_| InvalidInputError::new_err("a PNG whose pixels do not fill its size");
+    Ok(match img.pixels {
+        Pixels::U8(v) => Array2::from_shape_vec(shape, v)
+            .map_err(bad)?
+            .into_pyarray(py)
+            .into_any()
+            .unbind(),
+        Pixels::U16(v) => Array2::from_shape_vec(shape, v)
+            .map_err(bad)?
+            .into_pyarray(py)
+            .into_any()
+            .unbind(),
+        Pixels::F32(v) => Array2::from_shape_vec(shape, v)
+            .map_err(bad)?
+            .into_pyarray(py)
+            .into_any()
+            .unbind(),
+    })
+}
+
+/// Colour to luminance (ITU-R 601 weights): a (H, W, 3 or 4) array of uint8, uint16 or float32
+/// as a (H, W) float32 image, in one pass.
+#[pyfunction]
+pub fn luminance<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    if let Ok(a) = image.extract::<PyReadonlyArray3<'py, u8>>() {
+        luminance_array(py, &a)
+    } else if let Ok(a) = image.extract::<PyReadonlyArray3<'py, u16>>() {
+        luminance_array(py, &a)
+    } else if let Ok(a) = image.extract::<PyReadonlyArray3<'py, f32>>() {
+        luminance_array(py, &a)
+    } else {
+        Err(InvalidInputError::new_err(
+            "a colour image must be a 3-D array (H, W, 3 or 4) of uint8, uint16 or float32",
+        ))
     }
 }
 

@@ -10,7 +10,9 @@ use crate::error::{Error, Result};
 use crate::geometry::{radec_to_unit, unit_to_radec};
 use crate::sky::{CellIndex, Hit, Radius, ZoneIndex};
 
+mod bundled;
 mod read;
+pub use bundled::{BUNDLED_DEEP_FLOOR, BUNDLED_DEEP_LIMIT};
 pub use read::MAX_EXACT_FLOAT_ID;
 
 /// Zone height of the catalogue's spatial index for small cones.

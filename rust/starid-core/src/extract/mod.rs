@@ -169,6 +169,37 @@ macro_rules! pixel {
 }
 pixel!(u8, u16, u32, i8, i16, i32, f32, f64);
 
+/// Luminance weights of red, green and blue (ITU-R 601, as image libraries convert colour to
+/// grey).
+pub const LUMA_WEIGHTS: [f32; 3] = [0.299, 0.587, 0.114];
+
+/// The luminance of a colour image whose pixels hold `channels` values each (3: RGB, 4: RGB and
+/// alpha, which is ignored), interleaved row-major: one `f32` a pixel, in one pass.
+///
+/// # Errors
+/// `InvalidInput` when `channels` is not 3 or 4 or the buffer is not whole pixels.
+///
+/// # Example
+/// ```
+/// let rgba = [10u8, 20, 30, 255, 0, 0, 0, 0];
+/// let grey = starid_core::extract::luminance(&rgba, 4).unwrap();
+/// assert_eq!(grey.len(), 2);
+/// assert!((grey[0] - (0.299 * 10.0 + 0.587 * 20.0 + 0.114 * 30.0)).abs() < 1e-4);
+/// ```
+pub fn luminance<T: Pixel>(pixels: &[T], channels: usize) -> Result<Vec<f32>> {
+    if !(channels == 3 || channels == 4) || pixels.len() % channels != 0 {
+        return Err(Error::invalid_input(format!(
+            "a colour image has 3 or 4 values a pixel, got {channels} and {} values",
+            pixels.len()
+        )));
+    }
+    let [r, g, b] = LUMA_WEIGHTS;
+    Ok(pixels
+        .chunks_exact(channels)
+        .map(|p| r * p[0].to_f32() + g * p[1].to_f32() + b * p[2].to_f32())
+        .collect())
+}
+
 /// The spots of an image of `width` × `height` pixels, row-major, of any [`Pixel`] type (u8,
 /// u16, f32...): read in place, no converted copy is made.
 ///

@@ -16,7 +16,7 @@ use crate::kvector::{PairIndex, PairStore};
 use crate::sky::DensityMap;
 
 /// Version of the index file layout and of what the indexes hold; files of another are not read.
-pub const INDEX_FILE_FORMAT: u32 = 2;
+pub const INDEX_FILE_FORMAT: u32 = 3;
 
 /// Indexes with fewer pairs are not written: they build in milliseconds.
 pub const MIN_STORED_PAIRS: usize = 100_000;
@@ -64,14 +64,26 @@ impl Hash {
         self.0 = z ^ (z >> 31);
     }
 
+    /// A file's checksum: four lanes of words hashed side by side (each word's mixing waits on
+    /// the last of its own lane only), then folded into this hash.
     fn bytes(&mut self, b: &[u8]) {
-        let mut chunks = b.chunks_exact(8);
+        let mut lanes = [Hash(1), Hash(2), Hash(3), Hash(4)];
+        let mut blocks = b.chunks_exact(32);
+        for block in &mut blocks {
+            for (lane, c) in lanes.iter_mut().zip(block.chunks_exact(8)) {
+                lane.word(u64::from_le_bytes(c.try_into().expect("8 bytes")));
+            }
+        }
+        let mut chunks = blocks.remainder().chunks_exact(8);
         for c in &mut chunks {
             self.word(u64::from_le_bytes(c.try_into().expect("8 bytes")));
         }
         let mut tail = [0u8; 8];
         tail[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
         self.word(u64::from_le_bytes(tail) ^ (b.len() as u64) << 56);
+        for lane in lanes {
+            self.word(lane.0);
+        }
     }
 }
 
@@ -244,11 +256,7 @@ fn decode(bytes: &[u8], key: u64, n_stars: usize) -> Option<PairIndexes> {
             let g = usize::try_from(r.word()?).ok()?;
             let radius = r.float()?;
             let n = g.checked_mul(g)?.checked_mul(6)?;
-            let per_sr = r
-                .take(n.checked_mul(4)?)?
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-                .collect();
+            let per_sr = r.column::<f32>(n)?;
             Some(DensityMap::from_stored_parts(g, radius, per_sr)?)
         }
         _ => return None,
@@ -279,42 +287,59 @@ impl Reader<'_> {
         Some(f64::from_bits(self.word()?))
     }
 
+    /// `n` values stored little-endian, copied out whole (on a little-endian machine, one copy
+    /// of the bytes).
+    fn column<T: bytemuck::Pod + LittleEndian>(&mut self, n: usize) -> Option<Vec<T>> {
+        let bytes = self.take(n.checked_mul(std::mem::size_of::<T>())?)?;
+        let mut out = vec![T::zeroed(); n];
+        bytemuck::cast_slice_mut::<T, u8>(&mut out).copy_from_slice(bytes);
+        if cfg!(target_endian = "big") {
+            out.iter_mut().for_each(LittleEndian::swap_from_le);
+        }
+        Some(out)
+    }
+
     fn index(&mut self, n_stars: usize) -> Option<PairIndex> {
         let wide = self.word()?;
         let n_pairs = usize::try_from(self.word()?).ok()?;
         let n_k = usize::try_from(self.word()?).ok()?;
         let (max_angle, slope, intercept) = (self.float()?, self.float()?, self.float()?);
         let pairs = match wide {
-            0 => PairStore::Narrow(
-                self.take(n_pairs.checked_mul(4)?)?
-                    .chunks_exact(4)
-                    .map(|c| {
-                        [
-                            u16::from_le_bytes([c[0], c[1]]),
-                            u16::from_le_bytes([c[2], c[3]]),
-                        ]
-                    })
-                    .collect(),
-            ),
-            1 => PairStore::Wide(
-                self.take(n_pairs.checked_mul(8)?)?
-                    .chunks_exact(8)
-                    .map(|c| {
-                        [
-                            u32::from_le_bytes([c[0], c[1], c[2], c[3]]),
-                            u32::from_le_bytes([c[4], c[5], c[6], c[7]]),
-                        ]
-                    })
-                    .collect(),
-            ),
+            0 => PairStore::Narrow(self.column::<[u16; 2]>(n_pairs)?),
+            1 => PairStore::Wide(self.column::<[u32; 2]>(n_pairs)?),
             _ => return None,
         };
-        let k: Vec<u32> = self
-            .take(n_k.checked_mul(4)?)?
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
+        let k: Vec<u32> = self.column(n_k)?;
         PairIndex::from_stored_parts(max_angle, pairs, k, [slope, intercept], n_stars)
+    }
+}
+
+/// Values of a column whose stored little-endian bytes a big-endian machine swaps.
+trait LittleEndian {
+    fn swap_from_le(&mut self);
+}
+
+impl LittleEndian for u32 {
+    fn swap_from_le(&mut self) {
+        *self = u32::from_le(*self);
+    }
+}
+
+impl LittleEndian for f32 {
+    fn swap_from_le(&mut self) {
+        *self = f32::from_bits(u32::from_le(self.to_bits()));
+    }
+}
+
+impl<T: LittleEndian> LittleEndian for [T; 2] {
+    fn swap_from_le(&mut self) {
+        self.iter_mut().for_each(LittleEndian::swap_from_le);
+    }
+}
+
+impl LittleEndian for u16 {
+    fn swap_from_le(&mut self) {
+        *self = u16::from_le(*self);
     }
 }
 
