@@ -140,6 +140,23 @@ def test_png_files_read_as_pillow_reads_them(tmp_path: Path, mode: str) -> None:
     np.testing.assert_allclose(got, want, atol=1e-3)
 
 
+def test_a_colour_jpeg_is_read_as_its_luminance_channel(tmp_path: Path) -> None:
+    # The Y of YCbCr (BT.601 luminance), decoded alone: the luminance of the decoded colours
+    # but for rounding and chroma subsampling.
+    from PIL import Image
+
+    rng = np.random.default_rng(5)
+    smooth = np.cumsum(np.cumsum(rng.normal(0, 1, (64, 96, 3)), 0), 1)
+    rgb = np.clip(128 + 40 * smooth / np.abs(smooth).max(), 0, 255).astype(np.uint8)
+    p = tmp_path / "c.jpg"
+    Image.fromarray(rgb, "RGB").save(p, quality=95)
+    got = starid.read_image(p)
+    with Image.open(p) as im:
+        want = np.asarray(im.convert("F"))
+    assert got.dtype == np.uint8 and got.shape == (64, 96)
+    assert np.abs(got - want).mean() < 0.6
+
+
 def test_image_files(tmp_path: Path, bundled: starid.Catalog) -> None:
     from PIL import Image
 

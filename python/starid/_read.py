@@ -85,6 +85,10 @@ def read_image(path: PathLike) -> npt.NDArray[Any]:
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
                 with Image.open(p) as im:
                     _check_pixels(p, *im.size)
+                    # A colour JPEG holds its luminance as a channel of its own (Y of YCbCr,
+                    # BT.601): decoded alone, with no colour planes built.
+                    if im.format == "JPEG" and im.mode in ("RGB", "YCbCr"):
+                        im.draft("L", im.size)
                     # RGB(A) as stored, to luminance in the core (one pass); other colour
                     # modes to luminance in Pillow, straight to float32.
                     if im.mode in _PIL_RGB_MODES:
