@@ -1,5 +1,5 @@
-"""Image files and arrays in: PNG, JPEG and TIFF through Pillow, FITS through astropy, colour
-to luminance, and the pixel types the core reads in place."""
+"""Image files and arrays in: PNG through the core, JPEG and TIFF through Pillow, FITS through
+astropy, colour to luminance, and the pixel types the core reads in place."""
 
 from __future__ import annotations
 
@@ -38,8 +38,9 @@ def _check_pixels(p: Path, width: int, height: int) -> None:
 
 def read_image(path: PathLike) -> npt.NDArray[Any]:
     """Read an image file as a 2-D array (H, W): uint8 or uint16 as stored, float32 otherwise
-    (colour converted to luminance): PNG, JPEG, TIFF (8 or 16 bit) through Pillow, FITS through
-    astropy (``pip install 'starid-solver[fits]'``; the first image HDU).
+    (colour converted to luminance): PNG (8 or 16 bit) decoded by the core, JPEG (a colour one
+    as its luminance channel) and TIFF through Pillow, FITS through astropy
+    (``pip install 'starid-solver[fits]'``; the first image HDU).
 
     A file that is not a regular file, is over :data:`~starid._files.MAX_FILE_BYTES` or
     :data:`MAX_IMAGE_PIXELS`, or cannot be decoded (truncated, corrupt, a decompression bomb)
