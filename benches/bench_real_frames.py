@@ -6,7 +6,9 @@ For each frame of a folder with a ``truth.json`` (field of view and, where known
 boresight): the share of pixels at the image's lowest value (a background clipped at zero), the
 noise σ the extractor measured, the spots it kept and whether that is its cap, then the
 identification with the field of view ``exact`` (the 6° camera's measured 6.076°), ``given`` (as
-``truth.json`` states it, an estimate within the default tolerance) and ``unknown``: status,
+``truth.json`` states it, an estimate within the default tolerance), ``batch`` (given, each
+folder's frames as one ``identify_many`` batch, which learns the focal length its identified
+frames agree on) and ``unknown``: status,
 stars named, boresight error against the known one where there is one. Where the exact field
 identifies the frame, the spots no catalogue star of the deep bundled catalogue (Hipparcos to Hp 8)
 lies within 2 px of under that solution are counted: spurious spots, or stars fainter than the
@@ -49,9 +51,22 @@ def spots_off_catalogue(r: starid.Identification, c: starid.Centroids, catalog: 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("folder", type=Path)
-    p.add_argument("--mode", nargs="+", default=["exact", "given", "unknown"], choices=["exact", "given", "unknown"])
+    p.add_argument(
+        "--mode", nargs="+", default=["exact", "given", "batch", "unknown"], choices=["exact", "given", "batch", "unknown"]
+    )
     args = p.parse_args()
     truth = json.loads((args.folder / "truth.json").read_text())
+    batched: dict[str, tuple[starid.Identification, float]] = {}
+    if "batch" in args.mode:
+        groups: dict[tuple[str, float], list[str]] = {}
+        for name, t in truth.items():
+            if t.get("fov_deg") is not None:
+                groups.setdefault((name.split("/")[0], t["fov_deg"]), []).append(name)
+        for (_, fov), names in groups.items():
+            t0 = time.perf_counter()
+            rs = starid.identify_many([args.folder / n for n in names], fov_deg=fov)
+            each = 1e3 * (time.perf_counter() - t0) / len(names)
+            batched.update({n: (r, each) for n, r in zip(names, rs)})
     deep = starid.Catalog.deep()
     print("| frame | at lowest value | noise σ | spots | spots off the catalogue | " + " | ".join(args.mode) + " |")
     print("|---|---|---|---|---|" + "---|" * len(args.mode))
@@ -69,8 +84,11 @@ def main() -> None:
                 cells.append("(no field)")
                 continue
             t0 = time.perf_counter()
-            r = starid.identify(img, fov_deg=fov) if mode != "unknown" else starid.identify(img)
-            dt = 1e3 * (time.perf_counter() - t0)
+            if mode == "batch":
+                r, dt = batched[name]
+            else:
+                r = starid.identify(img, fov_deg=fov) if mode != "unknown" else starid.identify(img)
+                dt = 1e3 * (time.perf_counter() - t0)
             r = getattr(r, "identification", r)
             cell = f"{r.status} {r.n_matched}"
             if mode == "exact" and r.ok:

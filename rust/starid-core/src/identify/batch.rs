@@ -116,6 +116,55 @@ impl Solver {
         )
     }
 
+    /// The focal length (px) a batch's identified frames agree on, where the given camera's is
+    /// off: at least [`FOCAL_LEARN_MIN_FRAMES`] frames report one
+    /// ([`Identification::focal_length_px`]), and two thirds of all identified frames lie
+    /// within three of their standard errors (at least [`scale::FOCAL_SCALE_MIN`] of it) of the
+    /// reports' median, which is the answer. A frame identified with the camera's own focal
+    /// length counts as reporting that. `None` when nothing agrees or the median is the
+    /// camera's own within [`scale::FOCAL_SCALE_MIN`]. With it, the median standard error of
+    /// the reports that agree.
+    pub(crate) fn learn_focal_length(
+        out: &[Identification],
+        camera: &Camera,
+    ) -> Option<(f64, f64)> {
+        let f0 = camera.focal_length_px;
+        let identified: Vec<(f64, f64)> = out
+            .iter()
+            .filter(|id| id.is_identified())
+            .map(|id| match id.focal_length_px {
+                Some(f) if f.is_finite() && f > 0.0 => (f, id.focal_sigma_px),
+                _ => (f0, 0.0),
+            })
+            .collect();
+        let mut reported: Vec<f64> = identified
+            .iter()
+            .filter(|(f, _)| *f != f0)
+            .map(|p| p.0)
+            .collect();
+        if reported.len() < FOCAL_LEARN_MIN_FRAMES {
+            return None;
+        }
+        let median = stats::median_in_place(&mut reported);
+        let near = |(f, se): &(f64, f64)| {
+            let se = if se.is_finite() { *se } else { 0.0 };
+            (f - median).abs() <= (3.0 * se).max(scale::FOCAL_SCALE_MIN * median)
+        };
+        let agree = identified.iter().filter(|p| near(p)).count();
+        let mut se: Vec<f64> = identified
+            .iter()
+            .filter(|p| p.0 != f0 && near(p) && p.1.is_finite())
+            .map(|p| p.1)
+            .collect();
+        let se = if se.is_empty() {
+            f64::NAN
+        } else {
+            stats::median_in_place(&mut se)
+        };
+        (3 * agree >= 2 * identified.len() && (median / f0 - 1.0).abs() > scale::FOCAL_SCALE_MIN)
+            .then_some((median, se))
+    }
+
     /// Identify many frames of one camera, in parallel when the `parallel` feature is on and
     /// `threads` is not 1 (`None`: all cores). Results come in input order and do not depend on
     /// the thread count. A malformed frame does not stop the batch: its result has status
@@ -180,7 +229,7 @@ impl Solver {
         // Without the `parallel` feature every batch runs on the calling thread.
         #[cfg(not(feature = "parallel"))]
         let _ = threads;
-        let one = |f: &FrameRef<'_>, config: &IdentifyConfig| -> Identification {
+        let one = |f: &FrameRef<'_>, camera: &Camera, config: &IdentifyConfig| -> Identification {
             if cancel.load(Ordering::Relaxed) {
                 // Nothing is looked at; the chunk's end reports the cancellation.
                 return Identification::unidentified(Status::NoMatch, 0, 0, Duration::ZERO);
@@ -188,41 +237,48 @@ impl Solver {
             self.identify(f.0, f.1, camera, config)
                 .unwrap_or_else(|e| Identification::invalid_input(f.0.len(), e.to_string()))
         };
-        // The frames `which` picks (all of them: `None`), identified with `config`.
-        let run =
-            |which: Option<&[usize]>, config: &IdentifyConfig| -> Result<Vec<Identification>> {
-                let total = which.map_or(frames.len(), <[usize]>::len);
-                let mut out = Vec::with_capacity(total.min(BATCH_CHUNK));
-                let mut start = 0;
-                while start < total {
-                    let end = (start + BATCH_CHUNK).min(total);
-                    if cancel.load(Ordering::Relaxed) {
-                        return Err(Error::cancelled());
-                    }
-                    let frame = |k: usize| &frames[which.map_or(k, |w| w[k])];
-                    #[cfg(feature = "parallel")]
-                    if threads != Some(1) && end - start > 1 {
-                        use rayon::prelude::*;
-                        out.par_extend((start..end).into_par_iter().map(|k| one(frame(k), config)));
-                        start = end;
-                        continue;
-                    }
-                    out.extend((start..end).map(|k| one(frame(k), config)));
-                    start = end;
-                }
+        // The frames `which` picks (all of them: `None`), identified with `camera` and `config`.
+        let run = |which: Option<&[usize]>,
+                   camera: &Camera,
+                   config: &IdentifyConfig|
+         -> Result<Vec<Identification>> {
+            let total = which.map_or(frames.len(), <[usize]>::len);
+            let mut out = Vec::with_capacity(total.min(BATCH_CHUNK));
+            let mut start = 0;
+            while start < total {
+                let end = (start + BATCH_CHUNK).min(total);
                 if cancel.load(Ordering::Relaxed) {
                     return Err(Error::cancelled());
                 }
-                Ok(out)
-            };
+                let frame = |k: usize| &frames[which.map_or(k, |w| w[k])];
+                #[cfg(feature = "parallel")]
+                if threads != Some(1) && end - start > 1 {
+                    use rayon::prelude::*;
+                    out.par_extend(
+                        (start..end)
+                            .into_par_iter()
+                            .map(|k| one(frame(k), camera, config)),
+                    );
+                    start = end;
+                    continue;
+                }
+                out.extend((start..end).map(|k| one(frame(k), camera, config)));
+                start = end;
+            }
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::cancelled());
+            }
+            Ok(out)
+        };
         // The frames `redo` searched again with `config`: a frame identified now takes the new
         // result, marked by `mark`; either way its time and hypotheses count both searches.
         let again = |out: &mut [Identification],
                      redo: &[usize],
+                     camera: &Camera,
                      config: &IdentifyConfig,
                      mark: &dyn Fn(&mut Identification)|
          -> Result<()> {
-            for (i, mut id) in redo.iter().zip(run(Some(redo), config)?) {
+            for (i, mut id) in redo.iter().zip(run(Some(redo), camera, config)?) {
                 id.elapsed += out[*i].elapsed;
                 id.hypotheses += out[*i].hypotheses;
                 if id.is_identified() {
@@ -241,7 +297,33 @@ impl Solver {
                 .collect()
         };
         let both = || -> Result<Vec<Identification>> {
-            let mut out = run(None, config)?;
+            let mut out = run(None, camera, config)?;
+            // A focal length the identified frames agree on, where the given field was an
+            // estimate (a tolerance) and off: the frames nothing identified are searched again
+            // at it, as a field known (a frame's own search within the tolerance looks from the
+            // given focal length, and may spend its budget before reaching the true one).
+            let mut camera = *camera;
+            let redo = failed(&out);
+            if config.fov_tolerance > 0.0
+                && config.focal_check
+                && camera.is_ideal()
+                && !redo.is_empty()
+            {
+                if let Some((f, se)) = Self::learn_focal_length(&out, &camera) {
+                    camera.focal_length_px = f;
+                    let known = IdentifyConfig {
+                        fov_tolerance: 0.0,
+                        ..config.clone()
+                    };
+                    again(&mut out, &redo, &camera, &known, &|id| {
+                        if id.focal_length_px.is_none() {
+                            id.focal_length_px = Some(f);
+                            id.focal_sigma_px = se;
+                        }
+                    })?;
+                }
+            }
+            let camera = &camera;
             // A zero point the identified frames agree on: the frames with magnitudes nothing
             // identified without it are searched again, magnitude-gated (nothing is measured
             // while every frame with magnitudes is identified).
@@ -257,7 +339,7 @@ impl Solver {
                     .and_then(|zp| config.with_learned_zero_point(zp))
                 {
                     let offset = learned.mag_offset;
-                    again(&mut out, &with_magnitudes, &learned, &|id| {
+                    again(&mut out, &with_magnitudes, camera, &learned, &|id| {
                         id.learned_mag_offset = offset;
                     })?;
                     learned_offset = offset;
@@ -282,7 +364,7 @@ impl Solver {
                 noise_fallback: false,
                 ..config.clone()
             };
-            again(&mut out, &redo, &learned, &|id| {
+            again(&mut out, &redo, camera, &learned, &|id| {
                 id.learned_sigma_px = Some(sigma);
                 id.noise_source = NoiseSource::Learned;
                 id.learned_mag_offset = learned_offset;

@@ -115,6 +115,11 @@ pub const NOISE_LEARN_MIN_FRAMES: usize = 3;
 /// searched again with it (above, the ladder has tried as tight a noise already).
 pub const NOISE_LEARN_BELOW_LADDER: f64 = 0.75;
 
+/// Fewest frames of a batch, identified with a focal length other than the given camera's (the
+/// focal check's or the search within the tolerance's), from which the batch learns the focal
+/// length.
+pub const FOCAL_LEARN_MIN_FRAMES: usize = 3;
+
 /// A solution whose noise estimate reached this (pixels), found with a given field of view that
 /// the focal check did not confirm, leaves the field in doubt (see
 /// [`IdentifyConfig::fov_tolerance`]).

@@ -271,3 +271,70 @@ fn a_field_given_off_is_found_among_noise_peaks() {
         assert!(identified >= 17, "{off:+}: {identified} of 20");
     }
 }
+
+#[test]
+fn a_batch_learns_the_focal_length_its_frames_agree_on() {
+    // One camera whose field is given 6 % wide: beyond the grid about the given focal length
+    // (±4 % on 1400 px), so a frame is found by the search over the range from its brightest
+    // spots. Half the frames are clean; in the others noise peaks as bright as all but the
+    // brightest stars crowd those spots out. The clean frames agree on the focal length, and
+    // the batch searches the others again at it.
+    use rand::{Rng, SeedableRng};
+    let catalog = bundled();
+    let truth = Camera::from_fov(10f64.to_radians(), 1400.0, 1000.0).unwrap();
+    let given = Camera::from_fov(10.6f64.to_radians(), 1400.0, 1000.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &given).unwrap();
+    let sim = SimConfig {
+        mag_limit: Some(6.5),
+        noise_px: 0.3,
+        mag_noise: 0.2,
+        ..Default::default()
+    };
+    let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+    let mut frames = Vec::new();
+    for seed in 0..16u64 {
+        let f = simulate(&catalog, &truth, &sim, seed).unwrap();
+        let mut sorted = f.magnitudes.clone();
+        sorted.sort_by(f64::total_cmp);
+        let floor = sorted[3.min(sorted.len() - 1)];
+        let (mut xy, mut mags) = (f.centroids.clone(), f.magnitudes.clone());
+        if seed % 2 == 1 {
+            for _ in 0..300 {
+                xy.push([rng.random_range(0.0..1400.0), rng.random_range(0.0..1000.0)]);
+                mags.push(floor + rng.random_range(0.0..3.0));
+            }
+        }
+        frames.push((f, xy, mags));
+    }
+    let config = IdentifyConfig::default();
+    let refs: Vec<_> = frames
+        .iter()
+        .map(|(_, xy, m)| (xy.as_slice(), Some(m.as_slice())))
+        .collect();
+    let alone: Vec<_> = refs
+        .iter()
+        .map(|(xy, m)| solver.identify(xy, *m, &given, &config).unwrap())
+        .collect();
+    let batch = solver
+        .identify_batch(&refs, &given, &config, Some(1))
+        .unwrap();
+    let named =
+        |ids: &[starid_core::Identification]| ids.iter().filter(|i| i.is_identified()).count();
+    for (id, (f, _, _)) in batch.iter().zip(&frames) {
+        for (k, got) in id.catalog_index.iter().enumerate() {
+            assert!(got.is_none() || (k < f.catalog_index.len() && *got == f.catalog_index[k]));
+        }
+        if id.is_identified() {
+            let focal = id
+                .focal_length_px
+                .expect("a focal length other than the given one");
+            assert!(
+                (focal / truth.focal_length_px - 1.0).abs() < 2e-3,
+                "focal {focal}"
+            );
+        }
+    }
+    // 9 of 16 alone, 15 as a batch.
+    let (a, b) = (named(&alone), named(&batch));
+    assert!(b >= a + 4 && b >= 14, "alone {a}, batch {b}");
+}
