@@ -382,3 +382,46 @@ impl Solver {
         both()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An identified frame that reports focal length `f` (None: the camera's own).
+    fn frame(f: Option<f64>, se: f64) -> Identification {
+        let mut id = Identification::unidentified(Status::Identified, 10, 1, Duration::ZERO);
+        id.focal_length_px = f;
+        id.focal_sigma_px = if f.is_some() { se } else { f64::NAN };
+        id
+    }
+
+    #[test]
+    fn the_focal_length_is_learned_only_where_the_identified_frames_agree() {
+        let cam = Camera::from_focal_length(1000.0, 1000.0, 800.0).unwrap();
+        let off = |f: f64| frame(Some(f), 0.5);
+        // Three frames at 1030 px agree, one at the camera's own does not stop them.
+        let agree = [off(1030.0), off(1030.4), off(1029.7), frame(None, 0.0)];
+        let (f, se) = Solver::learn_focal_length(&agree, &cam).unwrap();
+        assert!((f - 1030.0).abs() < 1e-9 && (se - 0.5).abs() < 1e-9);
+        // Two reports are too few; unidentified frames count for nothing.
+        let mut few = vec![off(1030.0), off(1030.0)];
+        assert!(Solver::learn_focal_length(&few, &cam).is_none());
+        few.push(Identification::unidentified(
+            Status::NoMatch,
+            5,
+            0,
+            Duration::ZERO,
+        ));
+        assert!(Solver::learn_focal_length(&few, &cam).is_none());
+        // Most frames identified at the camera's own focal length: it stands.
+        let mut own = vec![off(1030.0), off(1030.0), off(1030.0)];
+        own.extend((0..3).map(|_| frame(None, 0.0)));
+        assert!(Solver::learn_focal_length(&own, &cam).is_none());
+        // Reports that scatter beyond their errors teach nothing.
+        let scatter = [off(1010.0), off(1030.0), off(1050.0)];
+        assert!(Solver::learn_focal_length(&scatter, &cam).is_none());
+        // Agreeing on the camera's own focal length changes nothing.
+        let same = [off(1000.2), off(1000.1), off(1000.3)];
+        assert!(Solver::learn_focal_length(&same, &cam).is_none());
+    }
+}
