@@ -36,7 +36,8 @@ def main() -> None:
     args = p.parse_args()
     cases = {"import starid": [sys.executable, "-c", "import starid"]}
     if args.fov_deg is not None:
-        cases[f"identify --fov-deg {args.fov_deg:g}"] = STARID + ["identify", str(args.image), "--fov-deg", str(args.fov_deg)]
+        given = ["identify", str(args.image), "--fov-deg", str(args.fov_deg)]
+        cases[f"identify --fov-deg {args.fov_deg:g}"] = STARID + given
     cases["identify, field unknown"] = STARID + ["identify", str(args.image)]
     for cmd in cases.values():
         wall(cmd)  # the index files, written once

@@ -130,7 +130,9 @@ def identify_unknown_field(
             stage_cfg = stage_cfg.replace(timeout_s=max(limit - spent[i] for i in todo))
         # (A frame of no more spots than the stage takes is searched whole, in its own order:
         # the result's spots are the frame's.)
-        picks = [None if spots is None or len(xys[i]) <= spots else _brightest(xys[i], mags[i], spots) for i in todo]
+        picks = [
+            None if spots is None or len(xys[i]) <= spots else _brightest(xys[i], mags[i], spots) for i in todo
+        ]
         sub_xy = [xys[i] if p is None else xys[i][p] for i, p in zip(todo, picks)]
         sub_m = [_pick(mags[i], p) for i, p in zip(todo, picks)]
         found = _starid.identify_unknown_fov_many(cat._native, sub_xy, sub_m, w, h, lo, hi, stage_cfg, threads)
