@@ -3,7 +3,7 @@
 //! `u16` as stored, colour becomes its luminance (`f32`, [`crate::extract::LUMA_WEIGHTS`]).
 
 use crate::error::{Error, Result};
-use crate::extract::LUMA_WEIGHTS;
+use crate::extract::{luminance, LUMA_WEIGHTS};
 
 /// A decoded image's pixels, row-major.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,12 +99,7 @@ pub fn read_png(bytes: &[u8], max_pixels: usize) -> Result<DecodedImage> {
                 .map(|p| u16::from_be_bytes([p[0], p[1]]))
                 .collect(),
         ),
-        (3 | 4, false) => Pixels::F32(
-            samples
-                .chunks_exact(channels)
-                .map(|p| wr * f32::from(p[0]) + wg * f32::from(p[1]) + wb * f32::from(p[2]))
-                .collect(),
-        ),
+        (3 | 4, false) => Pixels::F32(luminance(samples, channels)?),
         (3 | 4, true) => Pixels::F32(
             samples
                 .chunks_exact(2 * channels)
