@@ -222,7 +222,7 @@ fn a_field_given_off_is_found_among_noise_peaks() {
     // over the range fixes the focal length from triangles of the ten brightest spots, most of
     // them noise here; the grid of focal lengths about the given one finds what the field as
     // given would have, with the focal length refined over the stars.
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     let catalog = bundled();
     let truth = Camera::from_fov(10f64.to_radians(), 1400.0, 1000.0).unwrap();
     let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
@@ -239,15 +239,7 @@ fn a_field_given_off_is_found_among_noise_peaks() {
         let mut identified = 0;
         for seed in 0..20u64 {
             let f = simulate(&catalog, &truth, &sim, seed).unwrap();
-            let mut sorted = f.magnitudes.clone();
-            sorted.sort_by(f64::total_cmp);
-            let floor = sorted[4.min(sorted.len() - 1)];
-            let mut xy = f.centroids.clone();
-            let mut mags = f.magnitudes.clone();
-            for _ in 0..2000 {
-                xy.push([rng.random_range(0.0..1400.0), rng.random_range(0.0..1000.0)]);
-                mags.push(floor + rng.random_range(0.0..3.0));
-            }
+            let (xy, mags) = with_noise_peaks(&f, 2000, 4, &mut rng);
             let id = solver.identify(&xy, Some(&mags), &given, &config).unwrap();
             let real = f.centroids.len();
             for (k, named) in id.catalog_index.iter().enumerate() {
@@ -279,7 +271,7 @@ fn a_batch_learns_the_focal_length_its_frames_agree_on() {
     // spots. Half the frames are clean; in the others noise peaks as bright as all but the
     // brightest stars crowd those spots out. The clean frames agree on the focal length, and
     // the batch searches the others again at it.
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     let catalog = bundled();
     let truth = Camera::from_fov(10f64.to_radians(), 1400.0, 1000.0).unwrap();
     let given = Camera::from_fov(10.6f64.to_radians(), 1400.0, 1000.0).unwrap();
@@ -294,16 +286,8 @@ fn a_batch_learns_the_focal_length_its_frames_agree_on() {
     let mut frames = Vec::new();
     for seed in 0..16u64 {
         let f = simulate(&catalog, &truth, &sim, seed).unwrap();
-        let mut sorted = f.magnitudes.clone();
-        sorted.sort_by(f64::total_cmp);
-        let floor = sorted[3.min(sorted.len() - 1)];
-        let (mut xy, mut mags) = (f.centroids.clone(), f.magnitudes.clone());
-        if seed % 2 == 1 {
-            for _ in 0..300 {
-                xy.push([rng.random_range(0.0..1400.0), rng.random_range(0.0..1000.0)]);
-                mags.push(floor + rng.random_range(0.0..3.0));
-            }
-        }
+        let peaks = if seed % 2 == 1 { 300 } else { 0 };
+        let (xy, mags) = with_noise_peaks(&f, peaks, 3, &mut rng);
         frames.push((f, xy, mags));
     }
     let config = IdentifyConfig::default();
@@ -337,4 +321,25 @@ fn a_batch_learns_the_focal_length_its_frames_agree_on() {
     // 9 of 16 alone, 15 as a batch.
     let (a, b) = (named(&alone), named(&batch));
     assert!(b >= a + 4 && b >= 14, "alone {a}, batch {b}");
+}
+
+/// A frame's spots with `peaks` noise peaks spread over a 1400 × 1000 px sensor, each as bright
+/// as the star of rank `rank` (0: the brightest) or up to 3 magnitudes fainter: the centroids
+/// and magnitudes.
+fn with_noise_peaks(
+    f: &starid_core::simulate::SimFrame,
+    peaks: usize,
+    rank: usize,
+    rng: &mut rand::rngs::StdRng,
+) -> (Vec<[f64; 2]>, Vec<f64>) {
+    use rand::Rng;
+    let mut sorted = f.magnitudes.clone();
+    sorted.sort_by(f64::total_cmp);
+    let floor = sorted[rank.min(sorted.len() - 1)];
+    let (mut xy, mut mags) = (f.centroids.clone(), f.magnitudes.clone());
+    for _ in 0..peaks {
+        xy.push([rng.random_range(0.0..1400.0), rng.random_range(0.0..1000.0)]);
+        mags.push(floor + rng.random_range(0.0..3.0));
+    }
+    (xy, mags)
 }
