@@ -487,3 +487,26 @@ def test_extracted_centroids_are_identified_as_they_are() -> None:
 def test_extraction_settings_out_of_range_raise(setting: dict) -> None:
     with pytest.raises(starid.InvalidInputError, match=next(iter(setting))):
         starid.extract_centroids(_star(64, 48, 30.0, 20.0), **setting)
+
+
+def test_a_photograph_with_lit_branches_across_it_is_identified() -> None:
+    # An 8-bit photograph whose right third is branches lit by the town: hundreds of spots on
+    # them, flagged cluttered and left out, and the stars on the sky identified with the field
+    # of view given 7 % wide.
+    cat = starid.Catalog.deep(8)
+    cluttered = starid.images.FLAGS["cluttered"]
+    for seed in range(3):
+        img, truth = starid.simulate_image(
+            cat, 10.0, (1024, 768), seed=seed, mag_limit=7.5, foreground=0.3, bits=8, gain_e_per_dn=8.0,
+            background_e=300.0, zero_point_e=2e7,
+        )
+        everything = starid.extract_centroids(img, drop_flagged=False)
+        c = starid.extract_centroids(img)
+        assert len(everything) > 5 * len(c) and not (c.flags & cluttered).any()
+        assert (everything.flags & cluttered)[everything.xy[:, 0] > 0.85 * 1024].all()
+        r = starid.identify(img, cat, 10.7)
+        assert r.ok and r.n_matched >= 8, seed
+        for cid, (x, y) in zip(r.ids, c.xy):
+            if cid >= 0:
+                k = np.flatnonzero(truth.true_ids == cid)
+                assert len(k) == 1 and np.hypot(*(truth.xy[k[0]] - [x, y])) < 1.0

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 #: Spot flags (bits of :attr:`Centroids.flags`).
-FLAGS = {"hot_pixel": 1, "saturated": 2, "elongated": 4, "border": 8, "deblended": 16}
+FLAGS = {"hot_pixel": 1, "saturated": 2, "elongated": 4, "border": 8, "deblended": 16, "cluttered": 32}
 
 
 @dataclass(frozen=True)
@@ -18,8 +18,9 @@ class Centroids:
     ``xy`` (N, 2) pixels (x right, y down, origin at the top-left corner: the centre of pixel
     ``(i, j)`` is ``(i + 0.5, j + 0.5)``), ``flux`` (background subtracted), ``magnitudes``
     (instrument, ``-2.5 log10 flux``), ``peak``, ``pixels`` (above the threshold),
-    ``elongation``, ``flags`` (:data:`FLAGS` bits: saturated, border; hot pixels and elongated
-    spots are dropped unless ``drop_flagged=False``), and of the image: ``image_size``,
+    ``elongation``, ``flags`` (:data:`FLAGS` bits: saturated, border, deblended; hot pixels,
+    elongated spots and spots on a cluttered background, such as branches or a roof, are
+    dropped unless ``drop_flagged=False``), and of the image: ``image_size``,
     ``background`` (median level), ``noise_sigma``, ``hot_pixels`` (cleaned), ``dropped``.
     """
 

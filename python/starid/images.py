@@ -230,6 +230,7 @@ def simulate_image(
     gain_e_per_dn: float = 1.0,
     bits: int = 16,
     clip_background: bool = False,
+    foreground: float = 0.0,
 ) -> tuple[npt.NDArray[Any], Frame]:
     """A simulated frame rendered to pixels, with its truth: pixel-integrated Gaussian PSFs
     (``psf_sigma_px``), a star of magnitude 0 giving ``zero_point_e`` electrons, sky
@@ -237,7 +238,10 @@ def simulate_image(
     ``(x0, y0, x1, y1, electrons per pixel)``, Poisson and read noise, saturation at
     ``full_well_e``, ``bits``-bit quantisation with ``gain_e_per_dn``. With
     ``clip_background``, the sky is subtracted before quantisation and what falls below it
-    reads 0, as in frames whose pipeline removed the background.
+    reads 0, as in frames whose pipeline removed the background. ``foreground`` (a share of the
+    width, below 1) covers the right of the frame with a lit, textured foreground, its edge
+    ragged, as branches or a roof against a town-lit sky: the stars behind it are hidden and
+    its texture makes spots that are not stars.
 
     The image holds the digital numbers a sensor gives: uint16 for 16 bits, uint8 for 8, so
     that Pillow or astropy save it as it is (``PIL.Image.fromarray(img).save("frame.png")``
@@ -252,6 +256,7 @@ def simulate_image(
         float(psf_sigma_px), float(zero_point_e), float(background_e), float(gradient_e), float(read_noise_e),
         _whole("hot_pixels", hot_pixels), float(hot_pixel_e), tr, float(full_well_e), float(gain_e_per_dn),
         _whole("bits", bits, 64), _flag("clip_background", clip_background),
+        float(foreground),
     )
     w, h = cam.image_size
     frame: Frame = _frame(d, cam.fov_deg, (w, h), seed)

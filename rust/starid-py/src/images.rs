@@ -188,7 +188,7 @@ pub fn extract_centroids<'py>(
 #[pyo3(signature = (catalog, camera, seed, mag_limit=None, false_stars=0, psf_sigma_px=1.2,
                     zero_point_e=2.0e6, background_e=200.0, gradient_e=0.0, read_noise_e=5.0,
                     hot_pixels=0, hot_pixel_e=5000.0, trail=None, full_well_e=60000.0,
-                    gain_e_per_dn=1.0, bits=16, clip_background=false))]
+                    gain_e_per_dn=1.0, bits=16, clip_background=false, foreground=0.0))]
 pub fn simulate_image<'py>(
     py: Python<'py>,
     catalog: &Bound<'py, PyCatalog>,
@@ -208,6 +208,7 @@ pub fn simulate_image<'py>(
     gain_e_per_dn: f64,
     bits: u32,
     clip_background: bool,
+    foreground: f64,
 ) -> PyResult<(Bound<'py, numpy::PyArray2<f32>>, Bound<'py, PyDict>)> {
     let cam = camera.get().inner;
     if hot_pixels > 1_000_000 || false_stars > 100_000 {
@@ -234,6 +235,7 @@ pub fn simulate_image<'py>(
         gain_e_per_dn,
         bits,
         clip_background,
+        foreground,
     };
     let cat = catalog.get().inner.clone();
     let (frame, img) = run_core(py, move || {

@@ -238,6 +238,84 @@ impl Background {
     }
 }
 
+/// The noise σ about a point `(x, y)`: the spread ([`spread_sigma`]) of every second pixel of
+/// the window of side `block` centred on it (clipped to the image), less the pixels within
+/// `exclude` of it (a spot's own), read as [`Background::robust_sigma`] reads the frame's.
+pub(super) fn local_sigma<T: Pixel>(
+    img: &[T],
+    (width, height): (usize, usize),
+    block: usize,
+    (x, y): (f64, f64),
+    exclude: f64,
+) -> f64 {
+    let half = (block / 2) as f64;
+    let span = |c: f64, n: usize| {
+        let lo = (c - half).floor().max(0.0) as usize;
+        let hi = ((c + half).ceil() as usize).min(n);
+        (lo.min(hi), hi)
+    };
+    let ((x0, x1), (y0, y1)) = (span(x, width), span(y, height));
+    let mut s: Vec<f32> = Vec::with_capacity((block / 2 + 1) * (block / 2 + 1));
+    let (mut lowest, mut at_lowest) = (f32::INFINITY, 0usize);
+    for j in (y0..y1).step_by(2) {
+        let dy = j as f64 + 0.5 - y;
+        for i in (x0..x1).step_by(2) {
+            let dx = i as f64 + 0.5 - x;
+            if dx * dx + dy * dy <= exclude * exclude {
+                continue;
+            }
+            let v = img[j * width + i].to_f32();
+            if !v.is_finite() {
+                continue;
+            }
+            if v < lowest {
+                (lowest, at_lowest) = (v, 1);
+            } else if v == lowest {
+                at_lowest += 1;
+            }
+            s.push(v);
+        }
+    }
+    if s.len() < 8 {
+        return 0.0;
+    }
+    let clipped = at_lowest as f64 / s.len() as f64;
+    spread_sigma(&mut s, clipped)
+}
+
+/// Pixels this near a spot's centroid are its own, not its surroundings ([`local_sigma`]).
+pub(super) const SPOT_EXCLUSION_PX: f64 = 4.0;
+
+/// Most windows [`typical_local_sigma`] reads.
+const TYPICAL_WINDOWS: usize = 64;
+
+/// The noise [`local_sigma`] reads at a typical place of the image: its median over windows
+/// on a grid across it (at most [`TYPICAL_WINDOWS`]). Clutter over less than half the frame
+/// (a tree, a roof) leaves it the sky's, where the frame's own σ takes some of the clutter in.
+pub(super) fn typical_local_sigma<T: Pixel>(
+    img: &[T],
+    (width, height): (usize, usize),
+    block: usize,
+) -> f64 {
+    let spacing = (((width * height) as f64 / TYPICAL_WINDOWS as f64)
+        .sqrt()
+        .ceil() as usize)
+        .max(block)
+        .max(1);
+    let centres: Vec<(f64, f64)> = (spacing / 2..height.max(1))
+        .step_by(spacing)
+        .flat_map(|j| {
+            (spacing / 2..width.max(1))
+                .step_by(spacing)
+                .map(move |i| (i as f64, j as f64))
+        })
+        .collect();
+    let mut s: Vec<f32> = map_items(&centres, |&p| {
+        local_sigma(img, (width, height), block, p, 0.0) as f32
+    });
+    f64::from(median(&mut s))
+}
+
 /// Share of the sampled pixels at the image's lowest value from which the background counts
 /// as clipped. An unclipped background's lowest value is a lone tail sample: a few in ten
 /// thousand hold it, or a few in a hundred where coarse quantisation piles the tail onto one

@@ -49,6 +49,10 @@ pub mod flags {
     pub const BORDER: u8 = 8;
     /// Split from a blend of two or three stars (see [`super::ExtractConfig::deblend`]).
     pub const DEBLENDED: u8 = 16;
+    /// On a cluttered background: the noise around the spot is more than
+    /// [`super::CLUTTER_NOISE_RATIO`] times the frame's (foliage, a lit roof, a bright nebula's
+    /// knots). What stands out there is mostly texture, not stars.
+    pub const CLUTTERED: u8 = 32;
 }
 
 /// Settings of [`extract`].
@@ -67,7 +71,7 @@ pub struct ExtractConfig {
     pub saturation: Option<f64>,
     /// Elongation (ratio of the second moments' axes) above which a spot is flagged `ELONGATED`.
     pub max_elongation: f64,
-    /// Flagged spots (hot pixels, elongated) are left out of the result.
+    /// Flagged spots (hot pixels, elongated, cluttered) are left out of the result.
     pub drop_flagged: bool,
     /// A pixel above the threshold whose brightest neighbour holds less than this fraction of
     /// its signal is a hot pixel: it is replaced by its neighbours' median before detection,
@@ -99,6 +103,17 @@ pub const DEBLEND_MAX_SADDLE: f64 = 0.7;
 
 /// Components with more pixels than this are not deblended.
 pub const DEBLEND_MAX_PIXELS: usize = 400;
+
+/// A spot whose surroundings (a window of `background_block` pixels about it, the spot itself
+/// left out) are noisier than this many times the image's typical surroundings (the same
+/// measure's median across the image) is flagged
+/// [`flags::CLUTTERED`]. Shot noise alone needs a background four times the frame's typical
+/// one to get there; texture (branches against a lit sky, a roof, JPEG blocks on them) gets
+/// there at once.
+pub const CLUTTER_NOISE_RATIO: f64 = 2.0;
+
+/// Flags that [`ExtractConfig::drop_flagged`] leaves out.
+const DROPPED_FLAGS: u8 = flags::HOT_PIXEL | flags::ELONGATED | flags::CLUTTERED;
 
 impl Default for ExtractConfig {
     fn default() -> Self {
@@ -381,8 +396,26 @@ pub fn extract<T: Pixel>(
     .collect();
     let mut spots = Vec::with_capacity(measured.len());
     let mut dropped = 0;
-    for spot in measured {
-        if config.drop_flagged && spot.flags & (flags::HOT_PIXEL | flags::ELONGATED) != 0 {
+    let block = config.background_block;
+    let typical = if measured.is_empty() {
+        0.0
+    } else {
+        typical_local_sigma(pixels, (width, height), block)
+    };
+    let around = map_items(&measured, |s| {
+        local_sigma(
+            pixels,
+            (width, height),
+            block,
+            (s.x, s.y),
+            SPOT_EXCLUSION_PX,
+        )
+    });
+    for (mut spot, around) in measured.into_iter().zip(around) {
+        if typical > 0.0 && around > CLUTTER_NOISE_RATIO * typical {
+            spot.flags |= flags::CLUTTERED;
+        }
+        if config.drop_flagged && spot.flags & DROPPED_FLAGS != 0 {
             dropped += 1;
         } else {
             spots.push(spot);
@@ -618,6 +651,56 @@ mod tests {
             "{hot_reported} spurious spots in 3.1 megapixels"
         );
         assert_eq!(ok, 10);
+    }
+
+    #[test]
+    fn spots_on_a_lit_foreground_are_flagged_cluttered_and_stars_on_the_sky_are_not() {
+        let cat = random_catalog(20_000, 1.0, 8.0, 5).unwrap();
+        let cam = Camera::from_fov(10f64.to_radians(), 800.0, 600.0).unwrap();
+        // An 8-bit photograph whose right third is lit branches (the edge wanders between 60 %
+        // and 80 % of the width).
+        let rc = RenderConfig {
+            foreground: 0.3,
+            bits: 8,
+            gain_e_per_dn: 8.0,
+            background_e: 300.0,
+            zero_point_e: 2e7,
+            ..Default::default()
+        };
+        let config = ExtractConfig {
+            drop_flagged: false,
+            ..Default::default()
+        };
+        let (mut sky, mut branches, mut branches_flagged) = (0, 0, 0);
+        for seed in 0..4 {
+            let sim = SimConfig {
+                mag_limit: Some(7.5),
+                ..Default::default()
+            };
+            let frame = simulate(&cat, &cam, &sim, seed).unwrap();
+            let img = render(&frame, &cam, &rc, seed).unwrap();
+            let ex = extract(&img, 800, 600, &config).unwrap();
+            for s in &ex.spots {
+                let cluttered = s.flags & flags::CLUTTERED != 0;
+                if s.x < 0.6 * 800.0 {
+                    assert!(!cluttered, "a spot on the sky flagged: {s:?}");
+                    sky += 1;
+                } else if s.x > 0.85 * 800.0 {
+                    branches += 1;
+                    branches_flagged += usize::from(cluttered);
+                }
+            }
+            // Dropped by default.
+            let kept = extract(&img, 800, 600, &ExtractConfig::default()).unwrap();
+            assert!(kept.spots.iter().all(|s| s.flags & flags::CLUTTERED == 0));
+            assert_eq!(kept.dropped + kept.spots.len(), ex.spots.len());
+        }
+        assert!(sky >= 20, "{sky} stars on the sky");
+        assert!(branches >= 100, "{branches} spots on the branches");
+        assert!(
+            branches_flagged * 100 >= 95 * branches,
+            "{branches_flagged} of {branches} flagged"
+        );
     }
 
     #[test]

@@ -37,6 +37,11 @@ pub struct RenderConfig {
     /// quantisation, values below it clipped at zero: a frame whose pipeline removed its
     /// background, where about half the pixels read exactly 0.
     pub clip_background: bool,
+    /// A lit foreground across the right of the frame (branches against a town-lit sky, a
+    /// roof): this share of the width, its edge ragged. Stars behind it are hidden, and it is
+    /// textured with blobs of light of many sizes and brightnesses, which an extractor sees
+    /// as spots. 0: none.
+    pub foreground: f64,
 }
 
 impl Default for RenderConfig {
@@ -54,6 +59,7 @@ impl Default for RenderConfig {
             gain_e_per_dn: 1.0,
             bits: 16,
             clip_background: false,
+            foreground: 0.0,
         }
     }
 }
@@ -138,13 +144,14 @@ pub fn render(
         && c.gain_e_per_dn.is_finite()
         && c.gain_e_per_dn > 0.0
         && (c.bits == 8 || c.bits == 16)
+        && (0.0..1.0).contains(&c.foreground)
         && c.hot_pixels <= w * h
         && c.trail
             .is_none_or(|(ends, per_px)| ends.iter().all(|v| v.is_finite()) && finite_pos(per_px));
     if !valid {
         return Err(Error::invalid_input(
             "render: PSF σ in (0.05, 50) px, non-negative finite electrons, positive full well and gain, 8 or 16 bits, \
-             at most one hot pixel a pixel, a trail with finite ends",
+             at most one hot pixel a pixel, a trail with finite ends, a foreground share in [0, 1)",
         ));
     }
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x1AA6_E5EE);
@@ -157,7 +164,11 @@ pub fn render(
     }
     let s = c.psf_sigma_px * std::f64::consts::SQRT_2;
     let reach = (5.0 * c.psf_sigma_px).ceil() as isize;
+    let edge = foreground_edge(c.foreground, w as f64, h as f64, &mut rng);
     for (p, &m) in frame.centroids.iter().zip(&frame.magnitudes) {
+        if edge.as_ref().is_some_and(|e| e.hides(p[0], p[1])) {
+            continue;
+        }
         let total = c.zero_point_e * 10f64.powf(-0.4 * m);
         let (ci, cj) = (p[0].floor() as isize, p[1].floor() as isize);
         for j in (cj - reach).max(0)..=(cj + reach).min(h as isize - 1) {
@@ -182,6 +193,14 @@ pub fn render(
                 e[j as usize * w + i as usize] += per_px * len / (steps + 1) as f64;
             }
         }
+    }
+    if let Some(edge) = &edge {
+        edge.texture(
+            &mut e,
+            (w, h),
+            c.background_e.max(1.0) + c.read_noise_e.powi(2),
+            &mut rng,
+        );
     }
     for _ in 0..c.hot_pixels {
         let k = rng.random_range(0..w * h);
@@ -211,6 +230,96 @@ pub fn render(
             (v - sky(k)).round().clamp(0.0, max_dn) as f32
         })
         .collect())
+}
+
+/// The edge of a simulated foreground ([`RenderConfig::foreground`]): at row `y`, the
+/// foreground begins at `x = base + Σ a sin(y / period + phase)` (two swells and a jagged
+/// ripple).
+struct ForegroundEdge {
+    base: f64,
+    waves: [(f64, f64, f64); 3],
+}
+
+/// Leaves of a simulated foreground per pixel of it: faint ones, overlapping into a mottled
+/// texture, and bright ones, which stand out as spots.
+const FOREGROUND_LEAVES_PER_PX: [f64; 2] = [1.0 / 25.0, 1.0 / 400.0];
+
+fn foreground_edge(share: f64, w: f64, h: f64, rng: &mut impl Rng) -> Option<ForegroundEdge> {
+    (share > 0.0).then(|| {
+        let mut wave = |amp: f64, period: f64| {
+            (
+                amp * w,
+                period * h / std::f64::consts::TAU,
+                rng.random_range(0.0..std::f64::consts::TAU),
+            )
+        };
+        ForegroundEdge {
+            base: w * (1.0 - share),
+            waves: [wave(0.06, 0.9), wave(0.03, 0.3), wave(0.01, 0.05)],
+        }
+    })
+}
+
+impl ForegroundEdge {
+    fn at(&self, y: f64) -> f64 {
+        self.base
+            + self
+                .waves
+                .iter()
+                .map(|(a, p, ph)| a * (y / p + ph).sin())
+                .sum::<f64>()
+    }
+
+    fn hides(&self, x: f64, y: f64) -> bool {
+        x >= self.at(y)
+    }
+
+    /// Light on the foreground: its pixels a background brighter by half, and Gaussian blobs
+    /// (σ 0.6–2.5 px) at random places on it ([`FOREGROUND_LEAVES_PER_PX`]), the faint ones
+    /// peaking at 2–12 times the sky's noise (`sky_var`, electrons²), the bright ones at 3–60.
+    fn texture(&self, e: &mut [f64], (w, h): (usize, usize), sky_var: f64, rng: &mut impl Rng) {
+        let mut area = 0usize;
+        for j in 0..h {
+            let from = self.at(j as f64 + 0.5).max(0.0).ceil() as usize;
+            for v in &mut e[j * w + from.min(w)..(j + 1) * w] {
+                *v *= 1.5;
+            }
+            area += w.saturating_sub(from);
+        }
+        let noise = sky_var.sqrt();
+        let [faint, bright] = FOREGROUND_LEAVES_PER_PX.map(|d| (area as f64 * d) as usize);
+        let mut placed = 0;
+        // Places drawn over the sensor; those off the foreground drawn again.
+        for _ in 0..(faint + bright) * 100 {
+            if placed == faint + bright {
+                break;
+            }
+            let (x, y) = (
+                rng.random_range(0.0..w as f64),
+                rng.random_range(0.0..h as f64),
+            );
+            if !self.hides(x, y) {
+                continue;
+            }
+            placed += 1;
+            let sigma: f64 = rng.random_range(0.6..2.5);
+            let (lowest, span): (f64, f64) = if placed <= faint {
+                (2.0, 6.0)
+            } else {
+                (3.0, 20.0)
+            };
+            let peak = noise * lowest * span.powf(rng.random::<f64>());
+            let reach = (3.0 * sigma).ceil() as isize;
+            let (ci, cj) = (x as isize, y as isize);
+            for j in (cj - reach).max(0)..=(cj + reach).min(h as isize - 1) {
+                for i in (ci - reach).max(0)..=(ci + reach).min(w as isize - 1) {
+                    let (dx, dy) = (i as f64 + 0.5 - x, j as f64 + 0.5 - y);
+                    e[j as usize * w + i as usize] +=
+                        peak * (-(dx * dx + dy * dy) / (2.0 * sigma * sigma)).exp();
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
