@@ -133,6 +133,11 @@ pub const DOUBT_MORE_SPOTS: usize = 3;
 /// focal length's identification).
 pub const TOLERANCE_MAX_PAIRS: usize = 100_000;
 
+/// Catalogue pairs the first search at a focal length given as an estimate may visit before
+/// the search within the tolerance ([`IdentifyConfig::fov_tolerance`]) runs; the rest of the
+/// budget is spent at the focal length given only where that finds nothing.
+pub const QUICK_FIRST_PAIRS: usize = 100_000;
+
 /// Triangles tried at each step of the ladder but the last before moving to a looser step.
 pub const TRIANGLES_PER_STEP: usize = 60;
 

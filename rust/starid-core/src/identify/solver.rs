@@ -428,7 +428,45 @@ impl Solver {
             config,
             start,
         };
-        let mut id = self.search_frame(call)?;
+        // A field given as an estimate: a short search at the focal length given, then the
+        // search within the tolerance's range, and only then the rest of the budget at the
+        // focal length given (a field a few percent off would spend it all to find nothing).
+        // (The short search's solution is the full one's: the search tries hypotheses in the
+        // same order whatever its budget.)
+        let (shortest, longest) = config.focal_range_px(camera);
+        let mut ranged = None;
+        let mut quick_found = None;
+        if lone && shortest < longest && config.max_pairs_visited > QUICK_FIRST_PAIRS {
+            let quick = IdentifyConfig {
+                max_pairs_visited: QUICK_FIRST_PAIRS,
+                ..config.clone()
+            };
+            let first = self.search_frame(Call {
+                config: &quick,
+                ..call
+            })?;
+            if first.verified {
+                quick_found = Some(first);
+            } else {
+                let mut found = Identification::unidentified(
+                    Status::NoMatch,
+                    centroids.len(),
+                    0,
+                    start.elapsed(),
+                );
+                ranged = self.search_within_tolerance(call, &mut found, None, false)?;
+                if found.verified {
+                    found.hypotheses += first.hypotheses;
+                    found.noise_source = NoiseSource::of(config, &found);
+                    found.elapsed = start.elapsed();
+                    return Ok(found);
+                }
+            }
+        }
+        let mut id = match quick_found {
+            Some(id) => id,
+            None => self.search_frame(call)?,
+        };
         // Three stars among false spots: the triangle's own evidence, where its bound allows.
         let searched = matches!(id.status, Status::NoMatch | Status::SearchLimit);
         if lone && (searched || (id.status == Status::TooFewStars && centroids.len() == 3)) {
@@ -442,7 +480,7 @@ impl Solver {
         }
         self.count_scale_freedom(&mut id, call);
         if self.field_in_doubt(&id, call) {
-            self.search_within_tolerance(call, &mut id)?;
+            self.search_within_tolerance(call, &mut id, ranged, true)?;
         }
         // A frame still unnamed when its time ran out says so, not that nothing matched (the
         // searches within the tolerance stop at the time limit, or are not begun after it).

@@ -205,13 +205,18 @@ impl Solver {
         best >= given + (given / 4).max(DOUBT_MORE_SPOTS)
     }
 
-    /// Search the frame with its focal length unknown within the tolerance, and keep that
-    /// solution where it names more spots, or nearly as many with far tighter residuals.
+    /// Search the frame with its focal length unknown within the tolerance (unless `ranged`
+    /// holds that search's outcome already) and, with `grid`, where that finds nothing, at the
+    /// focal lengths of a grid about the given one; keep that solution where it names more
+    /// spots, or nearly as many with far tighter residuals. Returns the search over the range
+    /// where it found nothing and the grid did not run, for a later call to go on from.
     pub(crate) fn search_within_tolerance(
         &self,
         call: Call<'_>,
         id: &mut Identification,
-    ) -> Result<()> {
+        ranged: Option<crate::unknown_focal::FocalIdentification>,
+        grid: bool,
+    ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
         let (centroids, magnitudes, camera, config, _) = call.parts();
         let (shortest, longest) = config.focal_range_px(camera);
         // A range a few percent wide needs a fraction of the work of a field unknown across
@@ -223,15 +228,20 @@ impl Solver {
         };
         // The pair index stays the given camera's: the wider fields of the range lack only
         // their longest pairs.
-        let found = self.search_focal_range(
-            centroids,
-            magnitudes,
-            (camera.width_px, camera.height_px),
-            (shortest, longest),
-            &narrow,
-            false,
-        )?;
-        let mut found = found;
+        let mut found = match ranged {
+            Some(found) => found,
+            None => self.search_focal_range(
+                centroids,
+                magnitudes,
+                (camera.width_px, camera.height_px),
+                (shortest, longest),
+                &narrow,
+                false,
+            )?,
+        };
+        if !found.identification.verified && !grid {
+            return Ok(Some(found));
+        }
         if !found.identification.verified {
             if let Some(grid) = self.search_scale_grid(call, &found)? {
                 found = grid;
@@ -245,7 +255,7 @@ impl Solver {
             || (f.matched + DOUBT_MORE_SPOTS > id.matched
                 && 2.0 * f.centroid_sigma_px < id.centroid_sigma_px);
         let (true, true, Some(cam)) = (found.identification.verified, better, found.camera) else {
-            return Ok(());
+            return Ok(None);
         };
         let hypotheses = id.hypotheses + found.identification.hypotheses;
         *id = found.identification;
@@ -276,7 +286,7 @@ impl Solver {
             id.k1 = id.k1.or((cam.k1 != 0.0).then_some(cam.k1));
         }
         id.hypotheses += hypotheses;
-        Ok(())
+        Ok(None)
     }
 
     /// The frame searched with the camera as given at the focal lengths of a grid about it,

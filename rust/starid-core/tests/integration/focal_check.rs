@@ -216,6 +216,57 @@ fn a_field_of_view_within_its_tolerance_identifies_and_one_beyond_it_is_never_wr
 }
 
 #[test]
+fn a_field_given_off_is_searched_over_its_range_before_the_given_focal_length_spends_its_budget() {
+    // Held exact, a field 5 % off spends the whole budget at the focal length given and finds
+    // nothing; as an estimate, the search over the range comes after a short first search and
+    // finds the frame with a fraction of those hypotheses.
+    let catalog = bundled();
+    let truth = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let given = Camera::from_fov(12f64.to_radians() * 1.05, 512.0, 512.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let held = IdentifyConfig {
+        fov_tolerance: 0.0,
+        mag_offset: None,
+        ..Default::default()
+    };
+    let estimate = IdentifyConfig {
+        mag_offset: None,
+        ..Default::default()
+    };
+    let mut compared = 0;
+    for seed in 0..8u64 {
+        let sim = SimConfig {
+            noise_px: 0.2,
+            mag_noise: 0.3,
+            ..Default::default()
+        };
+        let f = simulate(&catalog, &truth, &sim, 300 + seed).unwrap();
+        if f.real_stars() < 8 {
+            continue;
+        }
+        let m = Some(&f.magnitudes[..]);
+        let spent = solver.identify(&f.centroids, m, &given, &held).unwrap();
+        let found = solver.identify(&f.centroids, m, &given, &estimate).unwrap();
+        assert!(found.is_identified(), "{seed}");
+        assert!(found
+            .catalog_index
+            .iter()
+            .zip(&f.catalog_index)
+            .all(|(a, b)| a.is_none() || a == b));
+        if !spent.is_identified() {
+            compared += 1;
+            assert!(
+                4 * found.hypotheses < spent.hypotheses,
+                "{seed}: {} hypotheses against {} held exact",
+                found.hypotheses,
+                spent.hypotheses
+            );
+        }
+    }
+    assert!(compared >= 4, "{compared}");
+}
+
+#[test]
 fn a_field_given_off_is_found_among_noise_peaks() {
     // A 10° sensor of 1400 × 1000 px: stars to 6.5 among 2000 noise peaks as bright as all but
     // the four brightest stars, as an extractor leaves them on a noisy real frame. The search
