@@ -20,7 +20,8 @@
 //!    window around the peak, refined by a Gaussian-windowed fit; the flux over the component,
 //!    the peak, the size, and the elongation from the second moments.
 //! 5. Flags: single hot pixels, saturated spots, elongated spots (trails, satellites), spots
-//!    touching the border.
+//!    touching the border, spots on a cluttered background (the noise about them, measured as
+//!    the frame's, over twice its median across the image: branches, a roof).
 //!
 //! Pixels follow the project's convention: pixel `(i, j)` (column, row) covers
 //! `[i, i + 1) × [j, j + 1)`, so its centre is at `(i + 0.5, j + 0.5)`, x right, y down, origin at
@@ -50,8 +51,8 @@ pub mod flags {
     /// Split from a blend of two or three stars (see [`super::ExtractConfig::deblend`]).
     pub const DEBLENDED: u8 = 16;
     /// On a cluttered background: the noise around the spot is more than
-    /// [`super::CLUTTER_NOISE_RATIO`] times the frame's (foliage, a lit roof, a bright nebula's
-    /// knots). What stands out there is mostly texture, not stars.
+    /// [`super::CLUTTER_NOISE_RATIO`] times the image's typical surroundings (foliage, a lit
+    /// roof). What stands out there is mostly texture, not stars.
     pub const CLUTTERED: u8 = 32;
 }
 
