@@ -474,7 +474,7 @@ def catalog_for(
 
 def _limit_of(cat: "Catalog") -> float:
     """The magnitude limit of a bundled catalogue, from its name."""
-    if cat is Catalog.default():
+    if cat is _default:
         return BUNDLED_DEPTHS[0]
     m = _DEEP_NAME.fullmatch(cat.name or "")
     return float(m.group(1)) if m else math.inf
@@ -483,8 +483,9 @@ def _limit_of(cat: "Catalog") -> float:
 def _field_choice(key: tuple[float, float, float]) -> "tuple[Catalog, tuple[float, ...]]":
     """The catalogue a field needs, and the deeper bundled limits it may use for faint spots."""
     sky = field_solid_angle_sr(key[0], (key[1], key[2])) / (4 * math.pi)
-    shallow = Catalog.default()
-    chosen = shallow if len(shallow) * sky >= MIN_STARS_PER_FIELD else Catalog.deep()
+    # (Counted without building: a narrow field never loads the catalogue it passes over.)
+    shallow = _bundled_count(BUNDLED_DEPTHS[0]) * sky >= MIN_STARS_PER_FIELD
+    chosen = Catalog.default() if shallow else Catalog.deep()
     base = _limit_of(chosen)
     deeper = tuple(
         limit for limit in BUNDLED_DEPTHS if limit > base and _bundled_count(limit) * sky <= MAX_STARS_PER_FIELD
@@ -499,7 +500,7 @@ def _field_choice(key: tuple[float, float, float]) -> "tuple[Catalog, tuple[floa
 def _bundled_count(limit: float) -> int:
     """How many stars the bundled catalogue to ``limit`` holds (without building it)."""
     if limit == BUNDLED_DEPTHS[0]:
-        return len(Catalog.default())
+        return int(_starid.Catalog.bundled_len())
     return int(_starid.Catalog.bundled_deep_len(limit))
 
 # The choice per field (a few camera geometries in a process): identify() pays a dict look-up.

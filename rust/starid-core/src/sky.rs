@@ -51,16 +51,22 @@ pub struct ZoneIndex {
 
 impl ZoneIndex {
     /// Build over `vectors` (unit vectors) with zones of `zone_height_rad`.
+    #[cfg(test)]
     pub fn new(vectors: &[Vector3<f64>], zone_height_rad: f64) -> Self {
+        let (ra, dec): (Vec<f64>, Vec<f64>) = vectors.iter().map(unit_to_radec).unzip();
+        Self::from_radec(&ra, &dec, zone_height_rad)
+    }
+
+    /// Build over the directions whose right ascensions and declinations (radians, as
+    /// [`unit_to_radec`] gives them) are `ra_rad` and `dec_rad`.
+    pub fn from_radec(ra_rad: &[f64], dec_rad: &[f64], zone_height_rad: f64) -> Self {
         let n_zones = ((PI / zone_height_rad).ceil() as usize).max(1);
         let zone_height_rad = PI / n_zones as f64;
-        let mut keyed: Vec<(u32, f64, u32)> = vectors
+        let mut keyed: Vec<(u32, f64, u32)> = ra_rad
             .iter()
+            .zip(dec_rad)
             .enumerate()
-            .map(|(i, v)| {
-                let (ra, dec) = unit_to_radec(v);
-                (zone_of(dec, zone_height_rad, n_zones) as u32, ra, i as u32)
-            })
+            .map(|(i, (&ra, &dec))| (zone_of(dec, zone_height_rad, n_zones) as u32, ra, i as u32))
             .collect();
         keyed.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
         let mut zone_start = vec![0u32; n_zones + 1];

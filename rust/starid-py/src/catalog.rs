@@ -141,6 +141,12 @@ impl PyCatalog {
         })?))
     }
 
+    /// How many stars the bundled catalogue holds, without building it.
+    #[staticmethod]
+    fn bundled_len() -> usize {
+        Catalog::bundled_len()
+    }
+
     /// How many stars the deep table holds to `mag_limit`.
     #[staticmethod]
     fn bundled_deep_len(mag_limit: f64) -> PyResult<usize> {

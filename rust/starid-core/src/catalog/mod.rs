@@ -76,6 +76,21 @@ impl Catalog {
         Self::from_table(BUNDLED_TABLE.as_bytes()).expect("the bundled table parses")
     }
 
+    /// How many stars [`Catalog::bundled`] holds, without building it (its table's lines,
+    /// less the comment and the header).
+    ///
+    /// # Example
+    /// ```
+    /// assert_eq!(starid_core::Catalog::bundled_len(), starid_core::Catalog::bundled().len());
+    /// ```
+    pub fn bundled_len() -> usize {
+        BUNDLED_TABLE
+            .lines()
+            .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+            .count()
+            - 1
+    }
+
     /// Catalogue from columns in degrees.
     ///
     /// Right ascension may be any finite angle: it is read modulo 360° (−10° and 350° are the
@@ -202,8 +217,8 @@ impl Catalog {
 
     fn from_vectors(ids: Vec<i64>, vectors: Vec<Vector3<f64>>, mag: Vec<f64>) -> Self {
         let (ra_rad, dec_rad): (Vec<f64>, Vec<f64>) = vectors.iter().map(unit_to_radec).unzip();
-        let zones = ZoneIndex::new(&vectors, ZONE_HEIGHT_RAD);
-        let wide_zones = ZoneIndex::new(&vectors, WIDE_ZONE_HEIGHT_RAD);
+        let zones = ZoneIndex::from_radec(&ra_rad, &dec_rad, ZONE_HEIGHT_RAD);
+        let wide_zones = ZoneIndex::from_radec(&ra_rad, &dec_rad, WIDE_ZONE_HEIGHT_RAD);
         let cells = CellIndex::new(&vectors);
         Self {
             ids,

@@ -4,10 +4,11 @@
 //!
 //! A file holds a header (format, catalogue key, star count), the pair index and the bright
 //! pair index (k-vectors and pairs), the star densities of the false-match bound (the sparsest
-//! field's and the sky map's), little-endian, and a checksum of all of it. A file that
+//! field's and the sky map's), little-endian, and a checksum of all of it (CRC-32). A file that
 //! does not read back whole and consistent is ignored and rebuilt; a directory that cannot be
 //! written only means the index is not kept.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::PairIndexes;
@@ -16,7 +17,7 @@ use crate::kvector::{PairIndex, PairStore};
 use crate::sky::DensityMap;
 
 /// Version of the index file layout and of what the indexes hold; files of another are not read.
-pub const INDEX_FILE_FORMAT: u32 = 3;
+pub const INDEX_FILE_FORMAT: u32 = 4;
 
 /// Indexes with fewer pairs are not written: they build in milliseconds.
 pub const MIN_STORED_PAIRS: usize = 100_000;
@@ -62,28 +63,6 @@ impl Hash {
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         self.0 = z ^ (z >> 31);
-    }
-
-    /// A file's checksum: four lanes of words hashed side by side (each word's mixing waits on
-    /// the last of its own lane only), then folded into this hash.
-    fn bytes(&mut self, b: &[u8]) {
-        let mut lanes = [Hash(1), Hash(2), Hash(3), Hash(4)];
-        let mut blocks = b.chunks_exact(32);
-        for block in &mut blocks {
-            for (lane, c) in lanes.iter_mut().zip(block.chunks_exact(8)) {
-                lane.word(u64::from_le_bytes(c.try_into().expect("8 bytes")));
-            }
-        }
-        let mut chunks = blocks.remainder().chunks_exact(8);
-        for c in &mut chunks {
-            self.word(u64::from_le_bytes(c.try_into().expect("8 bytes")));
-        }
-        let mut tail = [0u8; 8];
-        tail[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
-        self.word(u64::from_le_bytes(tail) ^ (b.len() as u64) << 56);
-        for lane in lanes {
-            self.word(lane.0);
-        }
     }
 }
 
@@ -131,8 +110,7 @@ pub(crate) fn load(
         .collect();
     files.sort_by(|a, b| a.0.total_cmp(&b.0));
     files.into_iter().find_map(|(_, path)| {
-        let bytes = std::fs::read(&path).ok()?;
-        let indexes = decode(&bytes, key, catalog.len())?;
+        let indexes = read(&path, key, catalog.len())?;
         (indexes.pairs.max_angle_rad() >= max_angle_rad).then_some((indexes, path))
     })
 }
@@ -194,9 +172,7 @@ fn encode(key: u64, n_stars: usize, indexes: &PairIndexes) -> Vec<u8> {
         }
         None => out.extend_from_slice(&0u64.to_le_bytes()),
     }
-    let mut h = Hash::default();
-    h.bytes(&out);
-    out.extend_from_slice(&h.0.to_le_bytes());
+    out.extend_from_slice(&u64::from(crc32fast::hash(&out)).to_le_bytes());
     out
 }
 
@@ -226,17 +202,18 @@ fn put_index(out: &mut Vec<u8>, index: &PairIndex) {
         .for_each(|i| out.extend_from_slice(&i.to_le_bytes()));
 }
 
-/// The indexes a file's bytes hold, if they are whole, of this format, of catalogue `key` of
-/// `n_stars` stars, and consistent.
-fn decode(bytes: &[u8], key: u64, n_stars: usize) -> Option<PairIndexes> {
-    let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
-    let mut h = Hash::default();
-    h.bytes(body);
-    if h.0.to_le_bytes() != sum {
-        return None;
-    }
-    let mut r = Reader(body);
-    let header_ok = r.take(8)? == MAGIC
+/// The indexes the file at `path` holds, if it is whole, of this format, of catalogue `key` of
+/// `n_stars` stars, and consistent. Each column is read straight into its own vector, and
+/// summed piece by piece while the piece is fresh in the cache.
+fn read(path: &Path, key: u64, n_stars: usize) -> Option<PairIndexes> {
+    let file = std::fs::File::open(path).ok()?;
+    let len = file.metadata().ok()?.len();
+    let mut r = Reader {
+        file,
+        left: len.checked_sub(8)?,
+        sum: crc32fast::Hasher::new(),
+    };
+    let header_ok = r.word()? == u64::from_le_bytes(*MAGIC)
         && r.word()? == u64::from(INDEX_FILE_FORMAT)
         && r.word()? == key
         && r.word()? == n_stars as u64;
@@ -261,7 +238,17 @@ fn decode(bytes: &[u8], key: u64, n_stars: usize) -> Option<PairIndexes> {
         }
         _ => return None,
     };
-    let sound = r.0.is_empty() && min_density_sr.is_finite() && min_density_sr > 0.0;
+    // All of the body read, then the checksum, then nothing more.
+    if r.left != 0 {
+        return None;
+    }
+    let mut sum = [0u8; 8];
+    r.file.read_exact(&mut sum).ok()?;
+    let at_end = matches!(r.file.read(&mut [0u8; 1]), Ok(0));
+    let sound = at_end
+        && u64::from_le_bytes(sum) == u64::from(r.sum.finalize())
+        && min_density_sr.is_finite()
+        && min_density_sr > 0.0;
     sound.then_some(PairIndexes {
         pairs,
         bright_pairs,
@@ -270,29 +257,45 @@ fn decode(bytes: &[u8], key: u64, n_stars: usize) -> Option<PairIndexes> {
     })
 }
 
-struct Reader<'a>(&'a [u8]);
+/// A file's body read in order, summed as it goes; `left` is what the body has still to give,
+/// so that a count read from a damaged header never asks for more than the file holds.
+struct Reader {
+    file: std::fs::File,
+    left: u64,
+    sum: crc32fast::Hasher,
+}
 
-impl Reader<'_> {
-    fn take(&mut self, n: usize) -> Option<&[u8]> {
-        let (head, rest) = self.0.split_at_checked(n)?;
-        self.0 = rest;
-        Some(head)
+/// Bytes read and summed at a time: small enough to stay in the cache between the two.
+const READ_PIECE: usize = 1 << 18;
+
+impl Reader {
+    fn fill(&mut self, out: &mut [u8]) -> Option<()> {
+        self.left = self.left.checked_sub(out.len() as u64)?;
+        for piece in out.chunks_mut(READ_PIECE) {
+            self.file.read_exact(piece).ok()?;
+            self.sum.update(piece);
+        }
+        Some(())
     }
 
     fn word(&mut self) -> Option<u64> {
-        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+        let mut w = [0u8; 8];
+        self.fill(&mut w)?;
+        Some(u64::from_le_bytes(w))
     }
 
     fn float(&mut self) -> Option<f64> {
         Some(f64::from_bits(self.word()?))
     }
 
-    /// `n` values stored little-endian, copied out whole (on a little-endian machine, one copy
-    /// of the bytes).
+    /// `n` values stored little-endian, read into a vector of their own.
     fn column<T: bytemuck::Pod + LittleEndian>(&mut self, n: usize) -> Option<Vec<T>> {
-        let bytes = self.take(n.checked_mul(std::mem::size_of::<T>())?)?;
+        let bytes = n.checked_mul(std::mem::size_of::<T>())?;
+        if bytes as u64 > self.left {
+            return None;
+        }
         let mut out = vec![T::zeroed(); n];
-        bytemuck::cast_slice_mut::<T, u8>(&mut out).copy_from_slice(bytes);
+        self.fill(bytemuck::cast_slice_mut::<T, u8>(&mut out))?;
         if cfg!(target_endian = "big") {
             out.iter_mut().for_each(LittleEndian::swap_from_le);
         }
