@@ -616,7 +616,13 @@ impl FocalSearch<'_> {
         let f3 = focal_for_angle(&self.off[obs[a]], &self.off[obs[b]], alpha).unwrap_or(f);
         let rays: Vec<Vector3<f64>> = obs.iter().map(|&s| self.ray(s, f3, mirrored)).collect();
         let refs: Vec<Vector3<f64>> = cat.iter().map(|&c| vectors[c as usize]).collect();
-        let rot = crate::attitude::wahba_svd(&rays, &refs)?;
+        // The least-squares attitude (the SVD's optimum), by Gauss-Newton from TRIAD along the
+        // longest side: a few 3×3 products where the SVD of every closed triangle cost most of
+        // the search.
+        let rot = match crate::attitude::triad(&rays[a], &rays[b], &refs[a], &refs[b]) {
+            Some(start) => crate::attitude::wahba_from(&rays, &refs, &start)?,
+            None => crate::attitude::wahba_svd(&rays, &refs)?,
+        };
         // The triangle itself must fit at this focal length.
         let tol = 4.0 * std::f64::consts::SQRT_2 * self.sigma / f3;
         if rays
