@@ -6,9 +6,13 @@ cd "$(dirname "$0")/../.."
 VENV=.venv-peers
 python3 -m venv "$VENV"
 "$VENV/bin/python" -m pip install --quiet --upgrade pip
-"$VENV/bin/python" -m pip install --quiet . -r benches/peers/requirements.txt
-# matplotlib separately: cedar-solve pins Pillow<9, which has no wheels for current Pythons;
-# pip then only warns about the pin, and cedar-solve's solver does not use Pillow.
+# cedar-solve pins Pillow<9, which starid's image reading outgrew (and which has no wheels for
+# current Pythons): it goes in without its pins, and its solver's own needs after it.
+grep -v cedar-solve benches/peers/requirements.txt > "$VENV/requirements-no-cedar.txt"
+"$VENV/bin/python" -m pip install --quiet . -r "$VENV/requirements-no-cedar.txt"
+"$VENV/bin/python" -m pip install --quiet --no-deps "$(grep cedar-solve benches/peers/requirements.txt)"
+"$VENV/bin/python" -m pip install --quiet scipy
+# matplotlib for the PNG.
 "$VENV/bin/python" -m pip install --quiet "matplotlib>=3.5" || echo "matplotlib not installed: no PNG"
 # ruststartracker needs numpy<2: its own environment, driven by benches/peers/rst_worker.py.
 python3 -m venv .venv-rst
