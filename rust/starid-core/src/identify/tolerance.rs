@@ -21,6 +21,16 @@ const SCALE_GRID_EDGE_PX: f64 = 0.75;
 /// that a frame with nothing to find spends about a millisecond a focal length.
 const SCALE_GRID_PAIRS: usize = 20_000;
 
+/// How far (a fraction of the given focal length) the first search over focal lengths looks,
+/// before the whole tolerance: a lens's nominal focal length, a sensor's crop or the focus is
+/// mostly off by less. On the peer scenarios with the field given 0.3-3 % off, it cuts the
+/// median time two to four times; 4.5-10 % off, it adds about 3 ms.
+const NEAR_FOCAL_TOLERANCE: f64 = 0.03;
+
+/// Catalogue pairs that first search may visit: a frame within its range is found among the
+/// first few thousand.
+const NEAR_FOCAL_PAIRS: usize = 5_000;
+
 /// Fewest spots a solution of the grid names. The union bound over the grid holds for spots
 /// that fall at random; a handful of spots shaped like a catalogue pattern at some scale is
 /// what a search over scales finds (five random points were once named five stars at a focal
@@ -230,14 +240,22 @@ impl Solver {
         // their longest pairs.
         let mut found = match ranged {
             Some(found) => found,
-            None => self.search_focal_range(
-                centroids,
-                magnitudes,
-                (camera.width_px, camera.height_px),
-                (shortest, longest),
-                &narrow,
-                false,
-            )?,
+            None => {
+                // A field a little off first: a narrow range closes few catalogue triangles,
+                // so it costs little and its bound counts few of them.
+                let near = self.search_near_focal(call, &narrow)?;
+                match near {
+                    Some(near) => near,
+                    None => self.search_focal_range(
+                        centroids,
+                        magnitudes,
+                        (camera.width_px, camera.height_px),
+                        (shortest, longest),
+                        &narrow,
+                        false,
+                    )?,
+                }
+            }
         };
         if !found.identification.verified && !grid {
             return Ok(Some(found));
@@ -287,6 +305,41 @@ impl Solver {
         }
         id.hypotheses += hypotheses;
         Ok(None)
+    }
+
+    /// The frame searched with its focal length unknown within [`NEAR_FOCAL_TOLERANCE`] of the
+    /// given one, with [`NEAR_FOCAL_PAIRS`] catalogue pairs: its identification where it finds
+    /// one (None where it does not, or where the tolerance is no wider than that).
+    fn search_near_focal(
+        &self,
+        call: Call<'_>,
+        config: &IdentifyConfig,
+    ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
+        let (centroids, magnitudes, camera, _, _) = call.parts();
+        let (shortest, longest) = config.focal_range_px(camera);
+        let f0 = camera.focal_length_px;
+        let range = (
+            (f0 * (1.0 - NEAR_FOCAL_TOLERANCE)).max(shortest),
+            (f0 * (1.0 + NEAR_FOCAL_TOLERANCE)).min(longest),
+        );
+        if range.0 <= shortest && range.1 >= longest {
+            return Ok(None);
+        }
+        // Held to half the bound: the search over the whole tolerance may follow it.
+        let near = IdentifyConfig {
+            max_pairs_visited: config.max_pairs_visited.min(NEAR_FOCAL_PAIRS),
+            max_false_match_prob: 0.5 * config.max_false_match_prob,
+            ..config.clone()
+        };
+        let found = self.search_focal_range(
+            centroids,
+            magnitudes,
+            (camera.width_px, camera.height_px),
+            range,
+            &near,
+            false,
+        )?;
+        Ok(found.identification.verified.then_some(found))
     }
 
     /// The frame searched with the camera as given at the focal lengths of a grid about it,

@@ -267,6 +267,61 @@ fn a_field_given_off_is_searched_over_its_range_before_the_given_focal_length_sp
 }
 
 #[test]
+fn a_field_a_little_off_is_found_under_a_wide_tolerance_with_a_narrow_ones_bound() {
+    // A field 2.5 % off, as a lens's nominal focal length gives it, on frames the focal length
+    // given does not identify. The search over focal lengths counts every catalogue triangle it
+    // closes in the false-match bound; under the default ±10 % tolerance the near focal lengths
+    // come first, so the frame is found with the bound a ±3 % tolerance gives it, not the three
+    // to thirteen times larger one of a search over the whole range.
+    let catalog = bundled();
+    let truth = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let given = Camera::from_fov(12f64.to_radians() * 1.025, 512.0, 512.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let tolerance = |t: f64| IdentifyConfig {
+        fov_tolerance: t,
+        mag_offset: None,
+        ..Default::default()
+    };
+    let mut compared = 0;
+    for seed in 0..60u64 {
+        let sim = SimConfig {
+            mag_limit: Some(6.0),
+            noise_px: 0.2,
+            mag_noise: 0.3,
+            ..Default::default()
+        };
+        let f = simulate(&catalog, &truth, &sim, 500 + seed).unwrap();
+        let m = Some(&f.magnitudes[..]);
+        let held = solver.identify(&f.centroids, m, &given, &tolerance(0.0));
+        if f.real_stars() < 6 || held.unwrap().is_identified() {
+            continue;
+        }
+        let wide = solver
+            .identify(&f.centroids, m, &given, &tolerance(0.1))
+            .unwrap();
+        let narrow = solver
+            .identify(&f.centroids, m, &given, &tolerance(0.03))
+            .unwrap();
+        if !narrow.is_identified() {
+            continue;
+        }
+        assert!(wide.is_identified(), "{seed}");
+        assert!(wide
+            .catalog_index
+            .iter()
+            .zip(&f.catalog_index)
+            .all(|(a, b)| a.is_none() || a == b));
+        let (w, n) = (wide.false_match_probability, narrow.false_match_probability);
+        assert!(
+            w <= 1.5 * n,
+            "{seed}: bound {w:e} at ±10 % against {n:e} at ±3 %"
+        );
+        compared += 1;
+    }
+    assert!(compared >= 8, "{compared}");
+}
+
+#[test]
 fn a_field_given_off_is_found_among_noise_peaks() {
     // A 10° sensor of 1400 × 1000 px: stars to 6.5 among 2000 noise peaks as bright as all but
     // the four brightest stars, as an extractor leaves them on a noisy real frame. The search
