@@ -134,8 +134,34 @@ pub(crate) fn save(
         .and_then(|()| std::fs::rename(&tmp, &path));
     if written.is_err() {
         let _ = std::fs::remove_file(&tmp);
+    } else {
+        remove_other_formats(dir);
     }
     written.map(|()| path)
+}
+
+/// Delete the index files in `dir` of another format than [`INDEX_FILE_FORMAT`]: no version of
+/// starid reads what an upgrade left behind, and the deepest catalogues' files are tens of MB.
+/// (A process of an older version reading one at the time keeps what it has open; failures are
+/// ignored.)
+fn remove_other_formats(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let ours = format!("pairs-v{INDEX_FILE_FORMAT}-");
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(name) = name.to_str() else {
+            continue;
+        };
+        let other_format = name
+            .strip_prefix("pairs-v")
+            .and_then(|rest| rest.split_once('-'))
+            .is_some_and(|(v, _)| !v.is_empty() && v.bytes().all(|b| b.is_ascii_digit()));
+        if other_format && !name.starts_with(&ours) && name.ends_with(".idx") {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 fn encode(key: u64, n_stars: usize, indexes: &PairIndexes) -> Vec<u8> {
@@ -409,6 +435,24 @@ mod tests {
         let other_key = catalog_key(&other);
         std::fs::rename(&path, d.join(file_name(other_key, 0.05))).unwrap();
         assert!(load(&d, &other, other_key, 0.05, 1.25).is_none());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn writing_an_index_deletes_the_files_of_older_formats_and_nothing_else() {
+        let cat = crate::simulate::random_catalog(3000, 1.0, 6.0, 7).unwrap();
+        let built = PairIndexes::build(&cat, 0.05).unwrap();
+        let d = dir("formats");
+        std::fs::create_dir_all(&d).unwrap();
+        let old = d.join("pairs-v3-0123456789abcdef-50000000.idx");
+        let foreign = ["notes.txt", "pairs-vX-1.idx", "pairs-v3-1.dat"].map(|n| d.join(n));
+        for p in foreign.iter().chain([&old]) {
+            std::fs::write(p, b"x").unwrap();
+        }
+        let key = catalog_key(&cat);
+        let path = save(&d, key, cat.len(), &built).unwrap();
+        assert!(!old.exists());
+        assert!(path.exists() && foreign.iter().all(|p| p.exists()));
         std::fs::remove_dir_all(&d).unwrap();
     }
 
