@@ -240,22 +240,19 @@ impl Solver {
         // their longest pairs.
         let mut found = match ranged {
             Some(found) => found,
-            None => {
-                // A field a little off first: a narrow range closes few catalogue triangles,
-                // so it costs little and its bound counts few of them.
-                let near = self.search_near_focal(call, &narrow)?;
-                match near {
-                    Some(near) => near,
-                    None => self.search_focal_range(
-                        centroids,
-                        magnitudes,
-                        (camera.width_px, camera.height_px),
-                        (shortest, longest),
-                        &narrow,
-                        false,
-                    )?,
-                }
-            }
+            // A field a little off first: a narrow range closes few catalogue triangles, so it
+            // costs little and its bound counts few of them.
+            None => match self.search_near_focal(call, (shortest, longest), &narrow)? {
+                Some(near) => near,
+                None => self.search_focal_range(
+                    centroids,
+                    magnitudes,
+                    (camera.width_px, camera.height_px),
+                    (shortest, longest),
+                    &narrow,
+                    false,
+                )?,
+            },
         };
         if !found.identification.verified && !grid {
             return Ok(Some(found));
@@ -309,14 +306,15 @@ impl Solver {
 
     /// The frame searched with its focal length unknown within [`NEAR_FOCAL_TOLERANCE`] of the
     /// given one, with [`NEAR_FOCAL_PAIRS`] catalogue pairs: its identification where it finds
-    /// one (None where it does not, or where the tolerance is no wider than that).
+    /// one (None where it does not, or where the tolerance's range, `(shortest, longest)`, is
+    /// no wider than that).
     fn search_near_focal(
         &self,
         call: Call<'_>,
+        (shortest, longest): (f64, f64),
         config: &IdentifyConfig,
     ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
         let (centroids, magnitudes, camera, _, _) = call.parts();
-        let (shortest, longest) = config.focal_range_px(camera);
         let f0 = camera.focal_length_px;
         let range = (
             (f0 * (1.0 - NEAR_FOCAL_TOLERANCE)).max(shortest),

@@ -3,8 +3,10 @@
 //! never are.
 
 use starid_core::geometry::rotation_angle_between;
-use starid_core::simulate::{simulate, SimConfig};
-use starid_core::{Camera, IdentifyConfig, Solver};
+use std::sync::Arc;
+
+use starid_core::simulate::{simulate, SimConfig, SimFrame};
+use starid_core::{Camera, Catalog, Identification, IdentifyConfig, Solver};
 
 use super::strategies::bundled;
 
@@ -215,15 +217,30 @@ fn a_field_of_view_within_its_tolerance_identifies_and_one_beyond_it_is_never_wr
     assert!(identified * 4 < frames.len(), "{identified}");
 }
 
+/// The bundled catalogue, a 12° camera of 512 px, that camera with its field given `factor`
+/// times too wide, and a solver for it.
+fn field_12_given_off(factor: f64) -> (Arc<Catalog>, Camera, Camera, Solver) {
+    let catalog = bundled();
+    let truth = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let given = Camera::from_fov(12f64.to_radians() * factor, 512.0, 512.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    (catalog, truth, given, solver)
+}
+
+/// Whether every spot `id` names is the star the frame put there.
+fn names_no_wrong_star(id: &Identification, f: &SimFrame) -> bool {
+    id.catalog_index
+        .iter()
+        .zip(&f.catalog_index)
+        .all(|(a, b)| a.is_none() || a == b)
+}
+
 #[test]
 fn a_field_given_off_is_searched_over_its_range_before_the_given_focal_length_spends_its_budget() {
     // Held exact, a field 5 % off spends the whole budget at the focal length given and finds
     // nothing; as an estimate, the search over the range comes after a short first search and
     // finds the frame with a fraction of those hypotheses.
-    let catalog = bundled();
-    let truth = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
-    let given = Camera::from_fov(12f64.to_radians() * 1.05, 512.0, 512.0).unwrap();
-    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let (catalog, truth, given, solver) = field_12_given_off(1.05);
     let held = IdentifyConfig {
         fov_tolerance: 0.0,
         mag_offset: None,
@@ -248,11 +265,7 @@ fn a_field_given_off_is_searched_over_its_range_before_the_given_focal_length_sp
         let spent = solver.identify(&f.centroids, m, &given, &held).unwrap();
         let found = solver.identify(&f.centroids, m, &given, &estimate).unwrap();
         assert!(found.is_identified(), "{seed}");
-        assert!(found
-            .catalog_index
-            .iter()
-            .zip(&f.catalog_index)
-            .all(|(a, b)| a.is_none() || a == b));
+        assert!(names_no_wrong_star(&found, &f));
         if !spent.is_identified() {
             compared += 1;
             assert!(
@@ -273,10 +286,7 @@ fn a_field_a_little_off_is_found_under_a_wide_tolerance_with_a_narrow_ones_bound
     // closes in the false-match bound; under the default ±10 % tolerance the near focal lengths
     // come first, so the frame is found with the bound a ±3 % tolerance gives it, not the three
     // to thirteen times larger one of a search over the whole range.
-    let catalog = bundled();
-    let truth = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
-    let given = Camera::from_fov(12f64.to_radians() * 1.025, 512.0, 512.0).unwrap();
-    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let (catalog, truth, given, solver) = field_12_given_off(1.025);
     let tolerance = |t: f64| IdentifyConfig {
         fov_tolerance: t,
         mag_offset: None,
@@ -306,11 +316,7 @@ fn a_field_a_little_off_is_found_under_a_wide_tolerance_with_a_narrow_ones_bound
             continue;
         }
         assert!(wide.is_identified(), "{seed}");
-        assert!(wide
-            .catalog_index
-            .iter()
-            .zip(&f.catalog_index)
-            .all(|(a, b)| a.is_none() || a == b));
+        assert!(names_no_wrong_star(&wide, &f));
         let (w, n) = (wide.false_match_probability, narrow.false_match_probability);
         assert!(
             w <= 1.5 * n,
