@@ -69,6 +69,26 @@ fn offset(rng: &mut impl Rng, angle: f64) -> Rotation3<f64> {
     Rotation3::from_axis_angle(&axis, angle)
 }
 
+/// `f` identified from `hint` alone (no fallback to lost in space).
+fn from_hint(
+    solver: &Solver,
+    f: &SimFrame,
+    cam: &Camera,
+    cfg: &IdentifyConfig,
+    hint: &AttitudeHint,
+) -> Identification {
+    solver
+        .identify_hinted(
+            &f.centroids,
+            Some(&f.magnitudes),
+            cam,
+            cfg,
+            hint,
+            HintFallback::None,
+        )
+        .unwrap()
+}
+
 fn main() {
     let args: Vec<usize> = std::env::args()
         .skip(1)
@@ -180,16 +200,7 @@ fn main() {
             uncertainty_rad: 1f64.to_radians(),
             mirrored: Some(f.mirrored),
         };
-        let b = solver
-            .identify_hinted(
-                &f.centroids,
-                Some(&f.magnitudes),
-                &cam,
-                &cfg,
-                &hint,
-                HintFallback::None,
-            )
-            .unwrap();
+        let b = from_hint(&solver, f, &cam, &cfg, &hint);
         ok += usize::from(b.is_identified());
         bad += wrong(&b, f);
         if b.is_identified() && std::env::var("STARID_DEBUG").is_ok() {
@@ -239,16 +250,7 @@ fn main() {
                 uncertainty_rad: 0.1f64.to_radians(),
                 mirrored: Some(f.mirrored),
             };
-            let a = solver
-                .identify_hinted(
-                    &f.centroids,
-                    Some(&f.magnitudes),
-                    &cam,
-                    &cfg,
-                    &good,
-                    HintFallback::None,
-                )
-                .unwrap();
+            let a = from_hint(&solver, f, &cam, &cfg, &good);
             ok_in += usize::from(a.is_identified());
             bad_in += wrong(&a, f);
             if std::env::var("STARID_WRONG").is_ok() && wrong(&a, f) > 0 {
@@ -264,16 +266,7 @@ fn main() {
                 r_icrs_to_cam: offset(&mut rng, 1f64.to_radians()) * f.r_icrs_to_cam,
                 ..good
             };
-            let b = solver
-                .identify_hinted(
-                    &f.centroids,
-                    Some(&f.magnitudes),
-                    &cam,
-                    &cfg,
-                    &off,
-                    HintFallback::None,
-                )
-                .unwrap();
+            let b = from_hint(&solver, f, &cam, &cfg, &off);
             ok_out += usize::from(b.is_identified());
             bad_out += wrong(&b, f);
         }

@@ -1,6 +1,6 @@
 use starid_core::simulate::{simulate_sequence, SequenceConfig, SimConfig};
 use starid_core::tracking::{
-    TrackMode, Tracker, TrackerConfig, CONFIRM_NEVER_NAMED_FRAMES, CONFIRM_UNSEEN_FRAMES,
+    TrackMode, TrackStep, Tracker, TrackerConfig, CONFIRM_NEVER_NAMED_FRAMES, CONFIRM_UNSEEN_FRAMES,
 };
 use starid_core::{Camera, ErrorKind, IdentifyConfig, SimFrame, Solver};
 
@@ -86,15 +86,31 @@ fn spot_on(f: &mut SimFrame, star: u32, cam: &Camera) -> usize {
     f.centroids.len() - 1
 }
 
+/// Frame `frame` at time `t_s` through `tracker` (the 12°/512 px camera and solver).
+fn update(tracker: &mut Tracker, frame: &SimFrame, t_s: f64) -> TrackStep {
+    tracker
+        .update(
+            solver_12(),
+            &frame.centroids,
+            Some(&frame.magnitudes),
+            &camera_12(),
+            t_s,
+        )
+        .unwrap()
+}
+
+/// A tracker with the default settings.
+fn default_tracker() -> Tracker {
+    Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap()
+}
+
 #[test]
 fn a_false_spot_on_a_star_the_camera_never_saw_waits_for_a_second_frame() {
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let (cat, cam) = (bundled(), camera_12());
     let limit = 6.0;
     let seq = sequence_12(24, 0.3, 0.2, None, 11);
     // A star too faint to be imaged that stays well inside the sensor the whole time.
-    let inside = |p: Option<[f64; 2]>| {
-        p.is_some_and(|[x, y]| (40.0..472.0).contains(&x) && (40.0..472.0).contains(&y))
-    };
+    let inside = |p: Option<[f64; 2]>| inside_by(p, 40.0);
     let faint = (0..cat.len() as u32)
         .filter(|&s| cat.mag()[s as usize] > limit + 0.15)
         .find(|&s| seq.iter().all(|f| inside(pixel_of(&f.frame, s, &cam))))
@@ -111,15 +127,7 @@ fn a_false_spot_on_a_star_the_camera_never_saw_waits_for_a_second_frame() {
             for (i, f) in seq.iter().enumerate().take(first + 2) {
                 let mut frame = f.frame.clone();
                 let spot = (i >= first).then(|| spot_on(&mut frame, faint, &cam));
-                let step = tracker
-                    .update(
-                        solver,
-                        &frame.centroids,
-                        Some(&frame.magnitudes),
-                        &cam,
-                        f.t_s,
-                    )
-                    .unwrap();
+                let step = update(&mut tracker, &frame, f.t_s);
                 assert!(step.identification.is_identified(), "frame {i}");
                 assert_eq!(step.mode == TrackMode::Tracking, i > 0, "frame {i}");
                 // The real stars are never named wrongly.
@@ -426,7 +434,7 @@ fn inside_by(p: Option<[f64; 2]>, margin: f64) -> bool {
 fn a_false_spot_on_a_star_past_the_cameras_limit_is_held_even_as_the_star_enters() {
     // A star just past the camera's limit that has only now come inside: no frame has had it
     // unseen yet, but the tracker has counted how rarely stars of its magnitude are matched.
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let (cat, cam) = (bundled(), camera_12());
     let limit = 6.0;
     let seq = sequence_12(200, 2.0, 0.2, None, 21);
     // From frame 30 on, every second frame: a faint star 6 px or more inside that the frame
@@ -446,15 +454,7 @@ fn a_false_spot_on_a_star_past_the_cameras_limit_is_held_even_as_the_star_enters
         for (f, target) in seq.iter().zip(&targets) {
             let mut frame = f.frame.clone();
             let spot = target.map(|s| spot_on(&mut frame, s, &cam));
-            let step = tracker
-                .update(
-                    solver,
-                    &frame.centroids,
-                    Some(&frame.magnitudes),
-                    &cam,
-                    f.t_s,
-                )
-                .unwrap();
+            let step = update(&mut tracker, &frame, f.t_s);
             assert!(step.identification.is_identified());
             if let Some(o) = spot {
                 named.push(step.identification.catalog_index[o]);
@@ -485,9 +485,9 @@ fn a_false_spot_on_a_star_past_the_cameras_limit_is_held_even_as_the_star_enters
 fn a_false_spot_inside_the_edge_does_not_take_the_name_of_a_star_just_off_it() {
     // The star's own spot fell off the sensor; a false spot of its brightness lies 2.2 px inward
     // from it (0.7 to 1.9 px inside the edge), within the match radius of a 0.5 px frame.
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let (cat, cam) = (bundled(), camera_12());
     let seq = sequence_12(150, 1.0, 0.5, None, 5);
-    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let mut tracker = default_tracker();
     let mut cases = 0;
     for (i, f) in seq.iter().enumerate() {
         let mut frame = f.frame.clone();
@@ -524,15 +524,7 @@ fn a_false_spot_inside_the_edge_does_not_take_the_name_of_a_star_just_off_it() {
             frame.catalog_index.push(None);
             frame.centroids.len() - 1
         });
-        let step = tracker
-            .update(
-                solver,
-                &frame.centroids,
-                Some(&frame.magnitudes),
-                &cam,
-                f.t_s,
-            )
-            .unwrap();
+        let step = update(&mut tracker, &frame, f.t_s);
         assert!(step.identification.is_identified(), "frame {i}");
         if let Some(o) = spot {
             cases += 1;
@@ -559,8 +551,7 @@ fn two_spots_of_a_close_pair_swapped_by_noise_are_not_named_when_brightness_says
     let r0 = facing(a, b);
     let seq = sequence_12(20, 0.1, 0.2, Some(r0), 3);
     for order_only in [false, true] {
-        let mut tracker =
-            Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+        let mut tracker = default_tracker();
         let mut swapped = 0;
         for (i, f) in seq.iter().enumerate() {
             let mut frame = f.frame.clone();
@@ -614,7 +605,7 @@ fn two_spots_of_an_equal_pair_crossed_along_the_smear_are_not_named() {
     // nearest the other star and the verification, taking the noise as round, names them
     // crosswise. Magnitudes cannot tell them apart. The tracker, which has measured the noise
     // along the motion, names neither (fails with `smear_rivals` off).
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let (cat, cam) = (bundled(), camera_12());
     let m = cat.mag();
     let (a, b) = bright_pairs(0.8..3.0)
         .into_iter()
@@ -642,7 +633,7 @@ fn two_spots_of_an_equal_pair_crossed_along_the_smear_are_not_named() {
             (d[0] * l[0] + d[1] * l[1]).abs() >= 20f64.to_radians().cos() * d[0].hypot(d[1])
         })
         .expect("a sequence moving along the pair");
-    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let mut tracker = default_tracker();
     let mut crossed = 0;
     for (i, f) in seq.iter().enumerate() {
         let mut frame = f.frame.clone();
@@ -659,15 +650,7 @@ fn two_spots_of_an_equal_pair_crossed_along_the_smear_are_not_named() {
             frame.centroids[oa] = [pa[0] + 0.85 * d[0], pa[1] + 0.85 * d[1]];
             frame.centroids[ob] = [pb[0] - 0.85 * d[0], pb[1] - 0.85 * d[1]];
         }
-        let step = tracker
-            .update(
-                solver,
-                &frame.centroids,
-                Some(&frame.magnitudes),
-                &cam,
-                f.t_s,
-            )
-            .unwrap();
+        let step = update(&mut tracker, &frame, f.t_s);
         let id = &step.identification;
         assert!(id.is_identified(), "frame {i}");
         for (got, want) in id.catalog_index.iter().zip(&frame.catalog_index) {
@@ -691,7 +674,7 @@ fn planted_spot_stays_unnamed(
     mut plant: impl FnMut(&mut SimFrame) -> usize,
 ) -> usize {
     let (cam, solver) = (camera_12(), solver_12());
-    let mut tracker = Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+    let mut tracker = default_tracker();
     let mut cases = 0;
     for (i, f) in seq.iter().enumerate() {
         let mut frame = f.frame.clone();
@@ -739,9 +722,7 @@ fn on_the_order_alone_a_bright_false_spot_on_a_faint_star_is_not_named() {
         if fields == 6 || seq.iter().any(|f| bright(&f.frame) < 2) {
             continue;
         }
-        let inside = |p: Option<[f64; 2]>| {
-            p.is_some_and(|[x, y]| (40.0..472.0).contains(&x) && (40.0..472.0).contains(&y))
-        };
+        let inside = |p: Option<[f64; 2]>| inside_by(p, 40.0);
         let Some(faint) = (0..cat.len() as u32)
             .filter(|&s| cat.mag()[s as usize] > 6.3)
             .find(|&s| seq.iter().all(|f| inside(pixel_of(&f.frame, s, &cam))))
@@ -855,9 +836,7 @@ fn a_false_spot_far_fainter_than_a_bright_star_whose_own_spot_is_missing_is_not_
                 break;
             }
             let seq = sequence_12(6, 0.3, 0.2, None, 300 + seed);
-            let inside = |p: Option<[f64; 2]>| {
-                p.is_some_and(|[x, y]| (40.0..472.0).contains(&x) && (40.0..472.0).contains(&y))
-            };
+            let inside = |p: Option<[f64; 2]>| inside_by(p, 40.0);
             // A star brighter than mag 3.5 imaged well inside the sensor in every frame.
             let Some(bright) = (0..cat.len() as u32)
                 .filter(|&s| cat.mag()[s as usize] < 3.5)
@@ -896,7 +875,7 @@ fn a_saturated_star_reading_far_fainter_than_its_catalogue_magnitude_keeps_its_n
     // brighter than the next spot: more than `MAG_FAINTER_LIMIT` fainter than its catalogue
     // magnitude, but still first in the brightness order. The tracker names it (fails with the
     // far-fainter check's order condition off).
-    let (cat, cam, solver) = (bundled(), camera_12(), solver_12());
+    let cat = bundled();
     let mut fields = 0;
     let mut cases = 0;
     for seed in 0..400 {
@@ -920,21 +899,12 @@ fn a_saturated_star_reading_far_fainter_than_its_catalogue_magnitude_keeps_its_n
             continue;
         }
         fields += 1;
-        let mut tracker =
-            Tracker::new(TrackerConfig::default(), IdentifyConfig::default()).unwrap();
+        let mut tracker = default_tracker();
         for (i, f) in seq.iter().enumerate() {
             let mut frame = f.frame.clone();
             let (o, reading) = brightest(&frame).expect("checked");
             frame.magnitudes[o] = reading;
-            let step = tracker
-                .update(
-                    solver,
-                    &frame.centroids,
-                    Some(&frame.magnitudes),
-                    &cam,
-                    f.t_s,
-                )
-                .unwrap();
+            let step = update(&mut tracker, &frame, f.t_s);
             let id = &step.identification;
             assert!(id.is_identified(), "seed {seed} frame {i}");
             if step.mode == TrackMode::Tracking {
