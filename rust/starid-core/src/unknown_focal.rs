@@ -370,7 +370,7 @@ impl Solver {
             let id = match first.take() {
                 Some(id) => id,
                 None => {
-                    let id = self.identify_found(centroids, magnitudes, &camera, config)?;
+                    let id = self.identify_with(centroids, magnitudes, &camera, config, false)?;
                     hyps += id.hypotheses;
                     id
                 }

@@ -83,20 +83,20 @@ pub(crate) fn brightness_order_into(n: usize, magnitudes: Option<&[f64]>, order:
     order.extend(keyed.into_iter().map(|(_, i)| i));
 }
 
-/// A frame's directions as seen and mirrored (x reversed), and its brightness order, into the
-/// buffers given (cleared first).
-pub(crate) fn prepare_frame(
-    centroids: &[[f64; 2]],
-    magnitudes: Option<&[f64]>,
-    camera: &Camera,
-    (obs, obs_mirrored, order): (
-        &mut Vec<Vector3<f64>>,
-        &mut Vec<Vector3<f64>>,
-        &mut Vec<usize>,
-    ),
-) {
-    directions_into(centroids, camera, true, (obs, obs_mirrored));
-    brightness_order_into(centroids.len(), magnitudes, order);
+/// This thread's scratch and, taken out of it, the call's frame buffers, filled: its
+/// directions as seen and mirrored (x reversed) and its brightness order. Both go back with
+/// `scratch.frame = frame` and [`return_scratch`].
+pub(super) fn take_prepared(call: &Call<'_>) -> (Box<Scratch>, FrameBuffers) {
+    let mut scratch = take_scratch();
+    let mut frame = std::mem::take(&mut scratch.frame);
+    directions_into(
+        call.centroids,
+        call.camera,
+        true,
+        (&mut frame.obs, &mut frame.obs_mirrored),
+    );
+    brightness_order_into(call.centroids.len(), call.magnitudes, &mut frame.order);
+    (scratch, frame)
 }
 
 /// The camera-frame directions of `centroids` into `obs`, and (where `mirrored_too`) those of the

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::{Rotation3, Vector3};
 
+use super::frame::Call;
 use super::{
     directions_into, magnitude_window, return_scratch, take_scratch, validate_centroids,
     BrightnessPrefix, Identification, IdentifyConfig, Method, Search, Solver, Status,
@@ -190,7 +191,14 @@ impl Solver {
         let n = centroids.len();
         let deadline = config.timeout.map(|t| start + t);
         let status = if n >= 2 {
-            match self.search_hinted(centroids, magnitudes, camera, config, hint, deadline) {
+            let call = Call {
+                centroids,
+                magnitudes,
+                camera,
+                config,
+                start,
+            };
+            match self.search_hinted(call, hint, deadline) {
                 Ok(mut id) => {
                     id.elapsed = start.elapsed();
                     return Ok(id);
@@ -227,13 +235,11 @@ impl Solver {
 
     fn search_hinted(
         &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
+        call: Call<'_>,
         hint: &AttitudeHint,
         deadline: Option<Instant>,
     ) -> std::result::Result<Identification, Status> {
+        let (centroids, magnitudes, camera, config, _) = call.parts();
         let n = centroids.len();
         // This thread's buffers from the last call: a tracking call allocates only its answer.
         let mut bufs = HINT_BUFFERS.with(Cell::take).unwrap_or_default();

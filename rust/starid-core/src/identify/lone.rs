@@ -53,7 +53,7 @@ use std::f64::consts::{PI, SQRT_2};
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::frame::{magnitude_window, prepare_frame, return_scratch, take_scratch, Call};
+use super::frame::{magnitude_window, return_scratch, take_prepared, Call};
 use super::search::FrameBuffers;
 
 use super::{
@@ -104,20 +104,18 @@ impl Solver {
     /// the bound allows, or `None`. Only for the camera as given (a search over focal lengths
     /// would have to count each), with `min_matches` at most 3.
     pub(crate) fn search_lone(&self, call: Call<'_>) -> Option<Identification> {
-        let (centroids, magnitudes, camera, config, start) = call.parts();
+        let (centroids, magnitudes, _, config, start) = call.parts();
         let n = centroids.len();
         if n < 3 || config.min_matches > LONE_MIN_MATCHES {
             return None;
         }
-        let mut scratch = take_scratch();
-        let mut frame = std::mem::take(&mut scratch.frame);
+        let (mut scratch, mut frame) = take_prepared(&call);
         let FrameBuffers {
             obs,
             obs_mirrored,
             order,
             ..
         } = &mut frame;
-        prepare_frame(centroids, magnitudes, camera, (obs, obs_mirrored, order));
         let offset = config
             .mag_offset
             .filter(|_| self.magnitudes_fit(magnitudes, config));

@@ -398,19 +398,9 @@ impl Solver {
         self.identify_with(centroids, magnitudes, camera, config, true)
     }
 
-    /// [`Solver::identify`] with a camera a search found rather than the one given: the
-    /// lone-triangle test (whose bound counts one camera) is not tried.
-    pub(crate) fn identify_found(
-        &self,
-        centroids: &[[f64; 2]],
-        magnitudes: Option<&[f64]>,
-        camera: &Camera,
-        config: &IdentifyConfig,
-    ) -> Result<Identification> {
-        self.identify_with(centroids, magnitudes, camera, config, false)
-    }
-
-    fn identify_with(
+    /// [`Solver::identify`]; `lone` false for a camera a search found rather than the one
+    /// given: the lone-triangle test (whose bound counts one camera) is not tried then.
+    pub(crate) fn identify_with(
         &self,
         centroids: &[[f64; 2]],
         magnitudes: Option<&[f64]>,
@@ -495,7 +485,7 @@ impl Solver {
 
     /// One search of a validated frame with the camera as given.
     pub(crate) fn search_frame(&self, call: Call<'_>) -> Result<Identification> {
-        let (centroids, magnitudes, camera, config, start) = call.parts();
+        let (centroids, magnitudes, _, config, start) = call.parts();
         let n = centroids.len();
         if n < MIN_CENTROIDS {
             let mut id = Identification::unidentified(Status::TooFewStars, n, 0, start.elapsed());
@@ -503,15 +493,13 @@ impl Solver {
             return Ok(id);
         }
         // The frame's buffers come from the thread's scratch and go back to it at the end.
-        let mut scratch = take_scratch();
-        let mut frame = std::mem::take(&mut scratch.frame);
+        let (mut scratch, mut frame) = take_prepared(&call);
         let FrameBuffers {
             obs,
             obs_mirrored,
             order,
             passes,
         } = &mut frame;
-        prepare_frame(centroids, magnitudes, camera, (obs, obs_mirrored, order));
         let ladder = config.noise_ladder(&SIGMA_LADDER_PX);
         let gated = self.magnitudes_fit(magnitudes, config);
         self.passes(n, &ladder, magnitudes.is_some(), gated, config, passes);

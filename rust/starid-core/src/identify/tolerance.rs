@@ -287,7 +287,7 @@ impl Solver {
             fov_tolerance: 0.0,
             ..config.clone()
         };
-        let again = self.identify_found(centroids, magnitudes, &cam, &held)?;
+        let again = self.identify_with(centroids, magnitudes, &cam, &held, false)?;
         if again.verified && again.matched > id.matched {
             let focal = again.focal_length_px.unwrap_or(cam.focal_length_px);
             let sigma = if again.focal_length_px.is_some() {
@@ -389,7 +389,7 @@ impl Solver {
             // its identification's bound would count the fit as evidence).
             let mut cam = *camera;
             cam.focal_length_px = f;
-            let first = self.identify_found(centroids, magnitudes, &cam, &each)?;
+            let first = self.identify_with(centroids, magnitudes, &cam, &each, false)?;
             hypotheses += first.hypotheses;
             let bound = first.false_match_probability * scales;
             if !first.verified

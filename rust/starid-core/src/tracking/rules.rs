@@ -126,9 +126,16 @@ impl Tracker {
             .map(|&[x, y]| camera.pixel_to_cam(x, y, id.mirrored))
             .collect();
         let mut drop = vec![false; id.catalog_index.len()];
-        off_sensor(id, solver, camera, &r, &dirs, &mut drop);
-        self.brightness_rivals(id, solver, magnitudes, &r, &dirs, &mut drop);
-        let smear = self.smear_rivals(id, solver, camera, &r, &dirs, &mut drop);
+        let named = Solution {
+            id,
+            solver,
+            camera,
+            r: &r,
+            dirs: &dirs,
+        };
+        off_sensor(&named, &mut drop);
+        self.brightness_rivals(&named, magnitudes, &mut drop);
+        let smear = self.smear_rivals(&named, &mut drop);
         for (o, d) in drop.into_iter().enumerate() {
             if d && id.catalog_index[o].take().is_some() {
                 id.residuals_rad[o] = f64::NAN;
@@ -142,15 +149,19 @@ impl Tracker {
     /// order implies (see [`order_magnitudes`]), fits a rival star or spot decisively better
     /// (see [`MAG_RIVAL_LOG_ODDS`]); `dirs`: the spots' camera-frame directions, `r` the
     /// solution.
-    pub(super) fn brightness_rivals(
+    fn brightness_rivals(
         &self,
-        id: &Identification,
-        solver: &Solver,
+        named: &Solution<'_>,
         magnitudes: Option<&[f64]>,
-        r: &Rotation3<f64>,
-        dirs: &[Vector3<f64>],
         drop: &mut [bool],
     ) {
+        let Solution {
+            id,
+            solver,
+            r,
+            dirs,
+            ..
+        } = *named;
         let catalog = solver.catalog();
         let (cat, mag) = (catalog.vectors(), catalog.mag());
         let n = id.catalog_index.len();
@@ -281,15 +292,14 @@ impl Tracker {
     /// (the same ln 1000 margin) under Gaussian noise of the two spreads, measured over this
     /// solution's and the last ones' named spots. Returns this solution's named spots' squared
     /// residuals along and across the motion, for the spreads of the frames that follow.
-    pub(super) fn smear_rivals(
-        &self,
-        id: &Identification,
-        solver: &Solver,
-        camera: &Camera,
-        r: &Rotation3<f64>,
-        dirs: &[Vector3<f64>],
-        drop: &mut [bool],
-    ) -> Vec<[f64; 2]> {
+    fn smear_rivals(&self, named: &Solution<'_>, drop: &mut [bool]) -> Vec<[f64; 2]> {
+        let Solution {
+            id,
+            solver,
+            camera,
+            r,
+            dirs,
+        } = *named;
         let Some(rate) = self.rate.filter(|w| w.norm() > 0.0) else {
             return Vec::new();
         };
@@ -410,17 +420,28 @@ impl Tracker {
     }
 }
 
-/// Mark in `drop` the spots of the solution `id` (attitude `r`, spots' camera-frame directions
-/// `dirs`) whose star the attitude fitted without the spot places off the sensor, more than
-/// [`OFF_SENSOR_SIGMAS`] from the spot.
-pub(super) fn off_sensor(
-    id: &Identification,
-    solver: &Solver,
-    camera: &Camera,
-    r: &Rotation3<f64>,
-    dirs: &[Vector3<f64>],
-    drop: &mut [bool],
-) {
+/// A tracking solution as the rules that unname its doubtful matches see it.
+#[derive(Clone, Copy)]
+struct Solution<'a> {
+    id: &'a Identification,
+    solver: &'a Solver,
+    camera: &'a Camera,
+    /// Its attitude.
+    r: &'a Rotation3<f64>,
+    /// The spots' camera-frame directions.
+    dirs: &'a [Vector3<f64>],
+}
+
+/// Mark in `drop` the spots of a solution whose star the attitude fitted without the spot
+/// places off the sensor, more than [`OFF_SENSOR_SIGMAS`] from the spot.
+fn off_sensor(named: &Solution<'_>, drop: &mut [bool]) {
+    let Solution {
+        id,
+        solver,
+        camera,
+        r,
+        dirs,
+    } = *named;
     let cat = solver.catalog().vectors();
     let sigma = id.centroid_sigma_px / camera.focal_length_px;
     let (w, h) = (camera.width_px, camera.height_px);
