@@ -11,27 +11,20 @@ identification.
    noise) and identified against the guide catalogue only, so the stars left out of it act as
    false stars. Reported per selection: stars, pair-index size, identified rate (boresight within
    0.1 deg of truth), frames with a wrong attitude, wrong ids, median time per frame.
-   Default sky: the contest catalogue from ../shared when present, else the bundled one.
+   Default sky: the contest catalogue (tests/data) when present, else the bundled one.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
-from pathlib import Path
 
 import numpy as np
 
 import starid
 import starid.guide as guide
-
-CONTEST = Path(__file__).resolve().parents[2] / "shared" / "data" / "guide_catalog_4908.csv"
-
-
-def _angle_deg(ra1: float, dec1: float, ra2: float, dec2: float) -> float:
-    r1, d1, r2, d2 = map(np.radians, (ra1, dec1, ra2, dec2))
-    c = np.sin(d1) * np.sin(d2) + np.cos(d1) * np.cos(d2) * np.cos(r1 - r2)
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+from _common import angle_rad, catalog_arg
 
 
 def speed() -> None:
@@ -89,7 +82,7 @@ def identification(sky: starid.Catalog, frames: int, fov: float, size: tuple[int
         for f, r in zip(sims, res):
             if not r.ok:
                 continue
-            if _angle_deg(r.ra_deg, r.dec_deg, f.ra_deg, f.dec_deg) < 0.1:
+            if math.degrees(angle_rad(r.ra_deg, r.dec_deg, f.ra_deg, f.dec_deg)) < 0.1:
                 good += 1
             else:
                 wrong_att += 1
@@ -112,12 +105,7 @@ def main() -> None:
     args = p.parse_args()
     if not args.skip_speed:
         speed()
-    if args.catalog:
-        sky = starid.Catalog.load(args.catalog)
-    elif CONTEST.exists():
-        sky = starid.Catalog.from_csv(CONTEST)
-    else:
-        sky = starid.Catalog.default()
+    sky = catalog_arg(args.catalog)
     identification(sky, args.frames, args.fov_deg, (args.size, args.size))
 
 

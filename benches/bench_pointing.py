@@ -17,25 +17,14 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 
 import starid
 import starid.pointing as sp
+from _common import angle_rad, catalog_arg
 
 ARCSEC = math.radians(1 / 3600)
-CONTEST = Path(__file__).resolve().parents[2] / "shared" / "data" / "guide_catalog_4908.csv"
-
-
-def unit(ra: np.ndarray, dec: np.ndarray) -> np.ndarray:
-    ra, dec = np.radians(ra), np.radians(dec)
-    return np.stack([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], axis=-1)
-
-
-def angle(ra1: float, dec1: float, ra2: float, dec2: float) -> float:
-    a, b = unit(np.array(ra1), np.array(dec1)), unit(np.array(ra2), np.array(dec2))
-    return float(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))  # accurate at tiny angles
 
 
 def sky(off: np.ndarray, f: float, rot: np.ndarray) -> np.ndarray:
@@ -59,11 +48,11 @@ def exact(trials: int, rng: np.random.Generator) -> None:
         t0 = time.perf_counter()
         known = sp.boresight_from_distances(radec, rad, focal_px=f)
         times["known"].append(time.perf_counter() - t0)
-        worst["known"] = max(worst["known"], angle(known[0].ra_deg, known[0].dec_deg, frame.ra_deg, frame.dec_deg))
+        worst["known"] = max(worst["known"], angle_rad(known[0].ra_deg, known[0].dec_deg, frame.ra_deg, frame.dec_deg))
         t0 = time.perf_counter()
         sols = sp.boresight_from_distances(radec, rad)
         times["unknown"].append(time.perf_counter() - t0)
-        errs = [(angle(s.ra_deg, s.dec_deg, frame.ra_deg, frame.dec_deg), abs(s.focal_px / f - 1)) for s in sols]
+        errs = [(angle_rad(s.ra_deg, s.dec_deg, frame.ra_deg, frame.dec_deg), abs(s.focal_px / f - 1)) for s in sols]
         e, fe = min(errs)
         if e < 0.01 * ARCSEC:
             found += 1
@@ -158,12 +147,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     exact(args.trials, rng)
     monte_carlo()
-    if args.catalog:
-        cat = starid.Catalog.load(args.catalog)
-    elif CONTEST.exists():
-        cat = starid.Catalog.from_csv(CONTEST)
-    else:
-        cat = starid.Catalog.default()
+    cat = catalog_arg(args.catalog)
     refinement(cat, min(args.frames, 500))
     unknown_fov(cat, args.frames)
     if cat.name != "default":

@@ -5,7 +5,7 @@ use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 use starid_core::identify::map_frames;
-use starid_core::{Camera, Cancel, HintFallback, Identification};
+use starid_core::{Camera, Cancel, Identification};
 
 use crate::camera::PyCamera;
 use crate::catalog::PyCatalog;
@@ -207,11 +207,7 @@ pub fn identify_hinted_many<'py>(
         )));
     }
     let (cam, solver, cfg) = crate::frame_setup(py, catalog, camera, config)?;
-    let fallback = if fallback {
-        HintFallback::LostInSpace
-    } else {
-        HintFallback::None
-    };
+    let fallback = crate::tracking::fallback_of(fallback);
     let out = watched(py, |cancel| {
         let cfg = starid_core::IdentifyConfig {
             cancel: Some(cancel.clone()),

@@ -419,9 +419,10 @@ fn identify_frame<'py>(
         .transpose()?;
     let id = match hint {
         None => identify_frame_of(py, catalog, centroids, mags, camera, config)?,
-        Some((q, u, fallback)) => tracking::identify_hinted_of(
-            py, catalog, centroids, mags, camera, config, q, u, None, fallback,
-        )?,
+        Some((q, u, fallback)) => {
+            let hint = (tracking::hint(q, u, None)?, tracking::fallback_of(fallback));
+            tracking::identify_hinted_of(py, catalog, (centroids, mags), camera, config, hint)?
+        }
     };
     Ok(id.into_pyobject(py)?.into_any().unbind())
 }

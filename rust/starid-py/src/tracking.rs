@@ -36,7 +36,7 @@ pub(crate) fn hint(
 }
 
 /// What a hinted search does when the hint explains nothing: lost in space, or no match.
-fn fallback_of(lost_in_space: bool) -> HintFallback {
+pub(crate) fn fallback_of(lost_in_space: bool) -> HintFallback {
     if lost_in_space {
         HintFallback::LostInSpace
     } else {
@@ -60,37 +60,28 @@ pub fn identify_hinted<'py>(
     fallback: bool,
 ) -> PyResult<PyIdentification> {
     let (centroids, mags) = convert::frame(&xy, magnitudes.as_ref())?;
+    let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
+    let frame = (centroids, mags);
     identify_hinted_of(
         py,
         catalog,
-        centroids,
-        mags,
+        frame,
         camera,
         config,
-        hint_wxyz,
-        uncertainty_deg,
-        mirrored,
-        fallback,
+        (hint, fallback_of(fallback)),
     )
 }
 
-/// [`identify_hinted`] of centroids and magnitudes already read.
-#[allow(clippy::too_many_arguments)]
+/// [`identify_hinted`] of a frame (centroids and magnitudes) and a hint already read.
 pub(crate) fn identify_hinted_of(
     py: Python<'_>,
     catalog: &Bound<'_, PyCatalog>,
-    centroids: Vec<[f64; 2]>,
-    mags: Option<Vec<f64>>,
+    (centroids, mags): (Vec<[f64; 2]>, Option<Vec<f64>>),
     camera: &Bound<'_, PyCamera>,
     config: &Bound<'_, PyIdentifyConfig>,
-    hint_wxyz: [f64; 4],
-    uncertainty_deg: f64,
-    mirrored: Option<bool>,
-    fallback: bool,
+    (hint, fb): (AttitudeHint, HintFallback),
 ) -> PyResult<PyIdentification> {
-    let hint = hint(hint_wxyz, uncertainty_deg, mirrored)?;
     let (cam, solver, cfg) = crate::frame_setup(py, catalog, camera, config)?;
-    let fb = fallback_of(fallback);
     let (id, centroids, mags) = run_core(py, move || {
         solver
             .identify_hinted(&centroids, mags.as_deref(), &cam, &cfg, &hint, fb)
