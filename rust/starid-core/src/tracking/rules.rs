@@ -293,13 +293,8 @@ impl Tracker {
     /// solution's and the last ones' named spots. Returns this solution's named spots' squared
     /// residuals along and across the motion, for the spreads of the frames that follow.
     fn smear_rivals(&self, named: &Solution<'_>, drop: &mut [bool]) -> Vec<[f64; 2]> {
-        let Solution {
-            id,
-            solver,
-            camera,
-            r,
-            dirs,
-        } = *named;
+        let (id, solver, camera, r, dirs) =
+            (named.id, named.solver, named.camera, named.r, named.dirs);
         let Some(rate) = self.rate.filter(|w| w.norm() > 0.0) else {
             return Vec::new();
         };
@@ -435,13 +430,7 @@ struct Solution<'a> {
 /// Mark in `drop` the spots of a solution whose star the attitude fitted without the spot
 /// places off the sensor, more than [`OFF_SENSOR_SIGMAS`] from the spot.
 fn off_sensor(named: &Solution<'_>, drop: &mut [bool]) {
-    let Solution {
-        id,
-        solver,
-        camera,
-        r,
-        dirs,
-    } = *named;
+    let (id, solver, camera, r, dirs) = (named.id, named.solver, named.camera, named.r, named.dirs);
     let cat = solver.catalog().vectors();
     let sigma = id.centroid_sigma_px / camera.focal_length_px;
     let (w, h) = (camera.width_px, camera.height_px);
