@@ -92,14 +92,29 @@ impl Solver {
         if !id.verified {
             return true;
         }
-        if id.focal_length_px.is_some() {
-            return false;
-        }
         let loose = id.centroid_sigma_px >= DOUBT_SIGMA_PX;
-        if loose && self.scale_shows(id, centroids, camera) {
-            return true;
-        }
-        (loose || id.matched < DOUBT_MATCHES)
+        // A camera the focal check corrected: the residuals fitted it, but a solution of a
+        // tight group of stars (a cluster) fits a scale well off the truth as well as the right
+        // one, and the correction may only have carried an edge spot onto another star. The
+        // spots it leaves unnamed and the stars it leaves unmatched still say so.
+        let corrected;
+        let camera = match id.focal_length_px {
+            Some(f) => {
+                corrected = Camera {
+                    focal_length_px: f,
+                    k1: id.k1.unwrap_or(camera.k1),
+                    ..*camera
+                };
+                &corrected
+            }
+            None => {
+                if loose && self.scale_shows(id, centroids, camera) {
+                    return true;
+                }
+                camera
+            }
+        };
+        (loose || id.matched < DOUBT_MATCHES || clustered(id, centroids, camera))
             && 5 * id.matched < 4 * n
             && (self.another_scale_fits(id, centroids, camera, (shortest, longest))
                 || self.bright_stars_missing(id, camera))
@@ -238,13 +253,22 @@ impl Solver {
         };
         // The pair index stays the given camera's: the wider fields of the range lack only
         // their longest pairs.
+        // More spots named, or nearly as many with residuals far tighter (a match radius widened
+        // for a scale error takes in a spot or two more by chance).
+        let better = |f: &Identification| {
+            !id.verified
+                || f.matched > id.matched
+                || (f.matched + DOUBT_MORE_SPOTS > id.matched
+                    && 2.0 * f.centroid_sigma_px < id.centroid_sigma_px)
+        };
         let mut found = match ranged {
             Some(found) => found,
             // A field a little off first: a narrow range closes few catalogue triangles, so it
-            // costs little and its bound counts few of them.
+            // costs little and its bound counts few of them. What it finds must be better than
+            // the solution in doubt (a cluster of stars fits any focal length near the given one).
             None => match self.search_near_focal(call, (shortest, longest), &narrow)? {
-                Some(near) => near,
-                None => self.search_focal_range(
+                Some(near) if better(&near.identification) => near,
+                _ => self.search_focal_range(
                     centroids,
                     magnitudes,
                     (camera.width_px, camera.height_px),
@@ -262,13 +286,7 @@ impl Solver {
                 found = grid;
             }
         }
-        let f = &found.identification;
-        // More spots named, or nearly as many with residuals far tighter (a match radius widened
-        // for a scale error takes in a spot or two more by chance).
-        let better = !id.verified
-            || f.matched > id.matched
-            || (f.matched + DOUBT_MORE_SPOTS > id.matched
-                && 2.0 * f.centroid_sigma_px < id.centroid_sigma_px);
+        let better = better(&found.identification);
         let (true, true, Some(cam)) = (found.identification.verified, better, found.camera) else {
             return Ok(None);
         };
@@ -420,4 +438,28 @@ impl Solver {
         }
         Ok(None)
     }
+}
+
+/// A solution whose matched spots lie this close together (the median distance from their
+/// median, as a fraction of the sensor's half diagonal) fixes its attitude but not the scale:
+/// a tight cluster of stars fits a focal length well off the truth, and the spots it names far
+/// from the cluster may be stars that a wrong scale carried onto other spots.
+const CLUSTER_FRACTION: f64 = 0.15;
+
+/// Whether the spots `id` names are clustered (see [`CLUSTER_FRACTION`]).
+fn clustered(id: &Identification, centroids: &[[f64; 2]], camera: &Camera) -> bool {
+    let named: Vec<[f64; 2]> = (id.catalog_index.iter().zip(centroids))
+        .filter_map(|(s, c)| s.map(|_| *c))
+        .collect();
+    if named.is_empty() {
+        return false;
+    }
+    let median = |k: usize| {
+        let mut v: Vec<f64> = named.iter().map(|p| p[k]).collect();
+        median_in_place(&mut v)
+    };
+    let (mx, my) = (median(0), median(1));
+    let mut d: Vec<f64> = named.iter().map(|p| (p[0] - mx).hypot(p[1] - my)).collect();
+    let half_diagonal = 0.5 * camera.width_px.hypot(camera.height_px);
+    median_in_place(&mut d) < CLUSTER_FRACTION * half_diagonal
 }

@@ -455,3 +455,46 @@ fn with_noise_peaks(
     }
     (xy, mags)
 }
+
+#[test]
+fn a_cluster_that_fits_a_field_given_off_does_not_name_far_spots_after_other_stars() {
+    // Frames of a 20°/1024 px camera with a tight cluster (the Pleiades) near an edge. Given a
+    // field 2 % or 6 % off, the cluster alone fits the focal length given (or one the focal
+    // check moved a little), and a spot or two far from it once took the names of stars that
+    // the wrong scale carried onto them. The spots' magnitudes as a camera gives them: 0.3 mag
+    // of scatter about an unknown zero point.
+    use rand::{Rng, SeedableRng};
+    let catalog = bundled();
+    let truth = Camera::from_fov(20f64.to_radians(), 1024.0, 1024.0).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let sim = SimConfig {
+        mag_limit: Some(6.0),
+        noise_px: 0.2,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
+    let config = IdentifyConfig {
+        mag_offset: None,
+        ..Default::default()
+    };
+    for (seed, off) in [(71u64, 0.02), (288, 0.06)] {
+        let mut f = simulate(&catalog, &truth, &sim, seed).unwrap();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5eed);
+        let scatter = rand_distr::Normal::new(0.0, 0.3).unwrap();
+        let zero_point = rng.random_range(-8.0..8.0);
+        for m in &mut f.magnitudes {
+            *m += zero_point + rng.sample(scatter);
+        }
+        let given = Camera::from_fov(20f64.to_radians() * (1.0 + off), 1024.0, 1024.0).unwrap();
+        let id = solver
+            .identify(&f.centroids, Some(&f.magnitudes), &given, &config)
+            .unwrap();
+        assert!(names_no_wrong_star(&id, &f), "seed {seed}");
+        // The search over the field's range finds the frame: most of its spots named.
+        assert!(
+            2 * id.matched > f.centroids.len(),
+            "seed {seed}: {} named",
+            id.matched
+        );
+    }
+}
