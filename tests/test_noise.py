@@ -54,8 +54,9 @@ def test_a_noise_stated_four_times_off_never_names_a_spot_wrong(factor: float) -
     assert len(ok) >= 30
     assert {r.noise_source for r in res if not r.ok} <= {"none"}
     if factor > 1:
-        # Stated too large: borne out, but the matches judged at the noise measured.
-        assert {r.noise_source for r in ok} == {"stated"}
+        # Stated too large: named at a tighter step of the default ladder, or borne out with the
+        # matches judged at the noise measured.
+        assert {r.noise_source for r in ok} <= {"stated", "narrowed"}
         assert np.median([r.centroid_sigma_px for r in ok]) < 0.5 * stated
     else:
         # Stated too small: some frames refuse it for a looser step.

@@ -200,7 +200,7 @@ impl Solver {
         }
         let top = &order[..n.min(SEARCH_STARS)];
         let confirm_pool = &order[..n.min(CONFIRM_STARS)];
-        let ladder = config.noise_ladder(&UNKNOWN_FOCAL_SIGMA_LADDER_PX);
+        let ladder = config.search_ladder(&UNKNOWN_FOCAL_SIGMA_LADDER_PX);
         let deadline = config.timeout.map(|t| start + t);
         // A right focal length identifies in a few hundred hypotheses; a wrong one should not
         // cost the full budget.

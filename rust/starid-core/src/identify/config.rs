@@ -290,6 +290,37 @@ impl IdentifyConfig {
         }
     }
 
+    /// The noise steps (px) of a lost-in-space search: [`IdentifyConfig::noise_ladder`], and with
+    /// a stated noise and `noise_fallback`, first the steps of `default` at most
+    /// 1/[`NOISE_LADDER_GAP`] of it: a noise stated too large costs a few tight triangles, not
+    /// the frame (a loose step's tolerances match so many catalogue triangles that the bound
+    /// seldom passes before the budget is spent).
+    ///
+    /// # Example
+    /// ```
+    /// use starid_core::{identify::SIGMA_LADDER_PX, IdentifyConfig};
+    /// let stated = IdentifyConfig { centroid_sigma_px: Some(4.0), ..Default::default() };
+    /// assert_eq!(stated.search_ladder(&SIGMA_LADDER_PX), vec![0.2, 0.7, 4.0]);
+    /// let small = IdentifyConfig { centroid_sigma_px: Some(0.1), ..Default::default() };
+    /// assert_eq!(small.search_ladder(&SIGMA_LADDER_PX), vec![0.1, 0.7, 2.5]);
+    /// ```
+    pub fn search_ladder(&self, default: &[f64]) -> Vec<f64> {
+        let tighter = self
+            .centroid_sigma_px
+            .filter(|_| self.noise_fallback)
+            .map_or(0, |s| {
+                default
+                    .iter()
+                    .take_while(|&&d| d * NOISE_LADDER_GAP <= s)
+                    .count()
+            });
+        default[..tighter]
+            .iter()
+            .copied()
+            .chain(self.noise_ladder(default))
+            .collect()
+    }
+
     /// Check every setting.
     ///
     /// # Errors

@@ -54,12 +54,15 @@ pub enum NoiseSource {
     Stated,
     /// A looser step than the stated noise: the residuals refused it as too small.
     Widened,
+    /// A tighter step of the default ladder than the stated noise, tried first (see
+    /// [`IdentifyConfig::search_ladder`]): the noise was stated larger than the frame needed.
+    Narrowed,
     /// The noise a batch learned from its frames identified with a wide margin.
     Learned,
 }
 
 impl NoiseSource {
-    /// Lower-case name: `none`, `ladder`, `stated`, `widened`, `learned`.
+    /// Lower-case name: `none`, `ladder`, `stated`, `widened`, `narrowed`, `learned`.
     ///
     /// # Example
     /// ```
@@ -71,6 +74,7 @@ impl NoiseSource {
             Self::Ladder => "ladder",
             Self::Stated => "stated",
             Self::Widened => "widened",
+            Self::Narrowed => "narrowed",
             Self::Learned => "learned",
         }
     }
@@ -83,6 +87,7 @@ impl NoiseSource {
         match config.centroid_sigma_px {
             None => Self::Ladder,
             Some(s) if (id.noise_step_px - s).abs() <= 1e-9 * s => Self::Stated,
+            Some(s) if id.noise_step_px < s => Self::Narrowed,
             Some(_) => Self::Widened,
         }
     }

@@ -500,7 +500,7 @@ impl Solver {
             order,
             passes,
         } = &mut frame;
-        let ladder = config.noise_ladder(&SIGMA_LADDER_PX);
+        let ladder = config.search_ladder(&SIGMA_LADDER_PX);
         let gated = self.magnitudes_fit(magnitudes, config);
         self.passes(n, &ladder, magnitudes.is_some(), gated, config, passes);
         // Catalogue-magnitude windows of each centroid (known zero point): the tight one first

@@ -115,7 +115,8 @@ fn ids_of(catalog: &Catalog, index: &[Option<u32>]) -> Vec<i64> {
 /// noise_source : str
 ///     Where ``noise_step_px`` came from: ``"ladder"`` (no noise stated; the default steps),
 ///     ``"stated"`` (``centroid_sigma_px``, borne out by the residuals), ``"widened"`` (the
-///     stated noise refused as too small; a looser step), ``"learned"`` (the noise
+///     stated noise refused as too small; a looser step), ``"narrowed"`` (a tighter step of the
+///     default ladder, tried before a stated noise that was larger), ``"learned"`` (the noise
 ///     ``identify_many`` learned from its frames), ``"none"`` when not ``ok``.
 /// learned_sigma_px : float or None
 ///     In ``identify_many``, the centroid noise the batch learned and searched this frame again

@@ -102,6 +102,7 @@ impl PyIdentification {
             NoiseSource::Ladder,
             NoiseSource::Stated,
             NoiseSource::Widened,
+            NoiseSource::Narrowed,
             NoiseSource::Learned,
         ]
         .into_iter()
