@@ -108,26 +108,14 @@ impl Catalog {
     /// assert!((cat.ra_rad()[1].to_degrees() - 350.0).abs() < 1e-9);
     /// ```
     pub fn new(ids: Vec<i64>, ra_deg: &[f64], dec_deg: &[f64], mag: Vec<f64>) -> Result<Self> {
-        let n = ids.len();
-        if ra_deg.len() != n || dec_deg.len() != n || mag.len() != n {
-            return Err(Error::catalog(
-                None,
-                format!(
-                    "columns differ in length: {} ids, {} ra, {} dec, {} mag",
-                    n,
-                    ra_deg.len(),
-                    dec_deg.len(),
-                    mag.len()
-                ),
-            ));
-        }
-        if n == 0 {
-            return Err(Error::catalog(None, "the catalogue holds no stars"));
-        }
-        if n > u32::MAX as usize / 2 {
-            return Err(Error::catalog(None, format!("too many stars ({n})")));
-        }
-        let mut seen = HashSet::with_capacity(n);
+        let n = check_columns(
+            &ids,
+            &[
+                ("ra", ra_deg.len()),
+                ("dec", dec_deg.len()),
+                ("mag", mag.len()),
+            ],
+        )?;
         for i in 0..n {
             let (ra, dec, m) = (ra_deg[i], dec_deg[i], mag[i]);
             if !ra.is_finite() || !dec.is_finite() || !m.is_finite() {
@@ -143,12 +131,6 @@ impl Catalog {
                         "star {} (row {i}) has declination {dec} outside [-90, 90] degrees",
                         ids[i]
                     ),
-                ));
-            }
-            if !seen.insert(ids[i]) {
-                return Err(Error::catalog(
-                    None,
-                    format!("id {} appears more than once", ids[i]),
                 ));
             }
         }
@@ -179,21 +161,7 @@ impl Catalog {
         vectors: Vec<Vector3<f64>>,
         mag: Vec<f64>,
     ) -> Result<Self> {
-        let n = ids.len();
-        if vectors.len() != n || mag.len() != n {
-            return Err(Error::catalog(
-                None,
-                format!(
-                    "columns differ in length: {n} ids, {} vectors, {} mag",
-                    vectors.len(),
-                    mag.len()
-                ),
-            ));
-        }
-        if n == 0 {
-            return Err(Error::catalog(None, "the catalogue holds no stars"));
-        }
-        let mut seen = HashSet::with_capacity(n);
+        let n = check_columns(&ids, &[("vectors", vectors.len()), ("mag", mag.len())])?;
         for i in 0..n {
             let norm = vectors[i].norm();
             if !norm.is_finite() || (norm - 1.0).abs() > 1e-9 || !mag[i].is_finite() {
@@ -203,12 +171,6 @@ impl Catalog {
                         "star {} (row {i}) has a non-unit vector or a non-finite mag",
                         ids[i]
                     ),
-                ));
-            }
-            if !seen.insert(ids[i]) {
-                return Err(Error::catalog(
-                    None,
-                    format!("id {} appears more than once", ids[i]),
                 ));
             }
         }
@@ -507,6 +469,37 @@ impl Catalog {
         self.for_each_in_cone(center, radius_rad, |s, _| out.push(s));
         out
     }
+}
+
+/// The number of stars of a catalogue's columns: `ids` and the other columns' lengths
+/// (named), which must agree, hold at least one star and at most what a pair index can name,
+/// and never repeat an id.
+fn check_columns(ids: &[i64], others: &[(&str, usize)]) -> Result<usize> {
+    let n = ids.len();
+    if others.iter().any(|&(_, len)| len != n) {
+        let lengths: Vec<String> = others
+            .iter()
+            .map(|(name, len)| format!("{len} {name}"))
+            .collect();
+        return Err(Error::catalog(
+            None,
+            format!("columns differ in length: {n} ids, {}", lengths.join(", ")),
+        ));
+    }
+    if n == 0 {
+        return Err(Error::catalog(None, "the catalogue holds no stars"));
+    }
+    if n > u32::MAX as usize / 2 {
+        return Err(Error::catalog(None, format!("too many stars ({n})")));
+    }
+    let mut seen = HashSet::with_capacity(n);
+    if let Some(id) = ids.iter().find(|&&id| !seen.insert(id)) {
+        return Err(Error::catalog(
+            None,
+            format!("id {id} appears more than once"),
+        ));
+    }
+    Ok(n)
 }
 
 #[cfg(test)]
