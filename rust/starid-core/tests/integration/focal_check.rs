@@ -220,11 +220,17 @@ fn a_field_of_view_within_its_tolerance_identifies_and_one_beyond_it_is_never_wr
 /// The bundled catalogue, a 12° camera of 512 px, that camera with its field given `factor`
 /// times too wide, and a solver for it.
 fn field_12_given_off(factor: f64) -> (Arc<Catalog>, Camera, Camera, Solver) {
-    let catalog = bundled();
-    let truth = Camera::from_fov(12f64.to_radians(), 512.0, 512.0).unwrap();
+    let (catalog, truth, solver) = sensor(12.0, (512.0, 512.0));
     let given = Camera::from_fov(12f64.to_radians() * factor, 512.0, 512.0).unwrap();
-    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
     (catalog, truth, given, solver)
+}
+
+/// The bundled catalogue, a camera of `fov_deg` on a sensor of `size` px and its solver.
+fn sensor(fov_deg: f64, (w, h): (f64, f64)) -> (Arc<Catalog>, Camera, Solver) {
+    let catalog = bundled();
+    let truth = Camera::from_fov(fov_deg.to_radians(), w, h).unwrap();
+    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    (catalog, truth, solver)
 }
 
 /// Whether every spot `id` names is the star the frame put there.
@@ -335,9 +341,7 @@ fn a_field_given_off_is_found_among_noise_peaks() {
     // them noise here; the grid of focal lengths about the given one finds what the field as
     // given would have, with the focal length refined over the stars.
     use rand::SeedableRng;
-    let catalog = bundled();
-    let truth = Camera::from_fov(10f64.to_radians(), 1400.0, 1000.0).unwrap();
-    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let (catalog, truth, solver) = sensor(10.0, (1400.0, 1000.0));
     let sim = SimConfig {
         mag_limit: Some(6.5),
         noise_px: 0.3,
@@ -464,9 +468,7 @@ fn a_cluster_that_fits_a_field_given_off_does_not_name_far_spots_after_other_sta
     // the wrong scale carried onto them. The spots' magnitudes as a camera gives them: 0.3 mag
     // of scatter about an unknown zero point.
     use rand::{Rng, SeedableRng};
-    let catalog = bundled();
-    let truth = Camera::from_fov(20f64.to_radians(), 1024.0, 1024.0).unwrap();
-    let solver = Solver::for_camera(catalog.clone(), &truth).unwrap();
+    let (catalog, truth, solver) = sensor(20.0, (1024.0, 1024.0));
     let sim = SimConfig {
         mag_limit: Some(6.0),
         noise_px: 0.2,
