@@ -14,6 +14,28 @@ pub(crate) struct Call<'a> {
 }
 
 impl<'a> Call<'a> {
+    /// A call beginning now, its settings and frame checked.
+    ///
+    /// # Errors
+    /// `InvalidInput` naming the first setting out of its domain or what is wrong with the frame.
+    pub(crate) fn checked(
+        centroids: &'a [[f64; 2]],
+        magnitudes: Option<&'a [f64]>,
+        camera: &'a Camera,
+        config: &'a IdentifyConfig,
+    ) -> Result<Self> {
+        let start = Instant::now();
+        config.validate()?;
+        validate_centroids(centroids, magnitudes, camera)?;
+        Ok(Call {
+            centroids,
+            magnitudes,
+            camera,
+            config,
+            start,
+        })
+    }
+
     /// The same call with another camera (a focal length or distortion being tried).
     pub(crate) fn with_camera<'b>(self, camera: &'b Camera) -> Call<'b>
     where

@@ -15,8 +15,8 @@ use nalgebra::{Rotation3, Vector3};
 
 use super::frame::Call;
 use super::{
-    directions_into, magnitude_window, return_scratch, take_scratch, validate_centroids,
-    BrightnessPrefix, Identification, IdentifyConfig, Method, Search, Solver, Status,
+    directions_into, magnitude_window, return_scratch, take_scratch, BrightnessPrefix,
+    Identification, IdentifyConfig, Method, Search, Solver, Status,
 };
 use crate::attitude::triad;
 use crate::error::{Error, Result};
@@ -179,25 +179,17 @@ impl Solver {
         hint: &AttitudeHint,
         fallback: HintFallback,
     ) -> Result<Identification> {
-        let start = Instant::now();
-        config.validate()?;
+        let call = Call::checked(centroids, magnitudes, camera, config)?;
         if !config.verify {
             return Err(Error::invalid_input(
                 "verify=false (raw method answers) is for lost-in-space identification only, not with an attitude hint",
             ));
         }
         hint.check()?;
-        validate_centroids(centroids, magnitudes, camera)?;
+        let start = call.start;
         let n = centroids.len();
         let deadline = config.timeout.map(|t| start + t);
         let status = if n >= 2 {
-            let call = Call {
-                centroids,
-                magnitudes,
-                camera,
-                config,
-                start,
-            };
             match self.search_hinted(call, hint, deadline) {
                 Ok(mut id) => {
                     id.elapsed = start.elapsed();

@@ -408,16 +408,8 @@ impl Solver {
         config: &IdentifyConfig,
         lone: bool,
     ) -> Result<Identification> {
-        let start = Instant::now();
-        config.validate()?;
-        validate_centroids(centroids, magnitudes, camera)?;
-        let call = Call {
-            centroids,
-            magnitudes,
-            camera,
-            config,
-            start,
-        };
+        let call = Call::checked(centroids, magnitudes, camera, config)?;
+        let start = call.start;
         // A field given as an estimate: a short search at the focal length given, then the
         // search within the tolerance's range, and only then the rest of the budget at the
         // focal length given (a field a few percent off would spend it all to find nothing).

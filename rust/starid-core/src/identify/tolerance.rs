@@ -97,25 +97,17 @@ impl Solver {
         // tight group of stars (a cluster) fits a scale well off the truth as well as the right
         // one, and the correction may only have carried an edge spot onto another star. The
         // spots it leaves unnamed and the stars it leaves unmatched still say so.
-        let corrected;
-        let camera = match id.focal_length_px {
-            Some(f) => {
-                corrected = Camera {
-                    focal_length_px: f,
-                    k1: id.k1.unwrap_or(camera.k1),
-                    ..*camera
-                };
-                &corrected
-            }
-            None => {
-                if loose && self.scale_shows(id, centroids, camera) {
-                    return true;
-                }
-                camera
-            }
-        };
-        (loose || id.matched < DOUBT_MATCHES || clustered(id, centroids, camera))
-            && 5 * id.matched < 4 * n
+        let corrected = id.focal_length_px.map(|f| Camera {
+            focal_length_px: f,
+            k1: id.k1.unwrap_or(camera.k1),
+            ..*camera
+        });
+        if corrected.is_none() && loose && self.scale_shows(id, centroids, camera) {
+            return true;
+        }
+        let camera = corrected.as_ref().unwrap_or(camera);
+        5 * id.matched < 4 * n
+            && (loose || id.matched < DOUBT_MATCHES || clustered(id, centroids, camera))
             && (self.another_scale_fits(id, centroids, camera, (shortest, longest))
                 || self.bright_stars_missing(id, camera))
     }
@@ -251,8 +243,6 @@ impl Solver {
             max_pairs_visited: config.max_pairs_visited.min(TOLERANCE_MAX_PAIRS),
             ..config.clone()
         };
-        // The pair index stays the given camera's: the wider fields of the range lack only
-        // their longest pairs.
         // More spots named, or nearly as many with residuals far tighter (a match radius widened
         // for a scale error takes in a spot or two more by chance).
         let better = |f: &Identification| {
@@ -261,6 +251,8 @@ impl Solver {
                 || (f.matched + DOUBT_MORE_SPOTS > id.matched
                     && 2.0 * f.centroid_sigma_px < id.centroid_sigma_px)
         };
+        // The pair index stays the given camera's: the wider fields of the range lack only
+        // their longest pairs.
         let mut found = match ranged {
             Some(found) => found,
             // A field a little off first: a narrow range closes few catalogue triangles, so it

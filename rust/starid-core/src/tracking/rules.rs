@@ -145,23 +145,16 @@ impl Tracker {
         smear
     }
 
-    /// Mark in `drop` the spots of `id` whose magnitude, or the one their place in the brightness
-    /// order implies (see [`order_magnitudes`]), fits a rival star or spot decisively better
-    /// (see [`MAG_RIVAL_LOG_ODDS`]); `dirs`: the spots' camera-frame directions, `r` the
-    /// solution.
+    /// Mark in `drop` the spots of a solution whose magnitude, or the one their place in the
+    /// brightness order implies (see [`order_magnitudes`]), fits a rival star or spot decisively
+    /// better (see [`MAG_RIVAL_LOG_ODDS`]).
     fn brightness_rivals(
         &self,
         named: &Solution<'_>,
         magnitudes: Option<&[f64]>,
         drop: &mut [bool],
     ) {
-        let Solution {
-            id,
-            solver,
-            r,
-            dirs,
-            ..
-        } = *named;
+        let (id, solver, r, dirs) = (named.id, named.solver, named.r, named.dirs);
         let catalog = solver.catalog();
         let (cat, mag) = (catalog.vectors(), catalog.mag());
         let n = id.catalog_index.len();
