@@ -226,8 +226,15 @@ def test_catalog_none_is_deep_enough_for_the_field() -> None:
     assert np.array_equal(res.ids[known], frame.true_ids[known])
     # Refinement finds the stars in the catalogue the result names.
     import starid.pointing as sp
+    from starid._catalog import resolve_catalog
 
     assert abs(sp.refine(res, frame.xy, image_size=(1024, 1024)).fov_deg - 6.0) < 0.01
+    # So does the name the result gives it: a bundled catalogue's name stands for it.
+    assert abs(sp.refine(res, frame.xy, res.catalog, image_size=(1024, 1024)).fov_deg - 6.0) < 0.01
+    assert resolve_catalog(deep.name) is deep and resolve_catalog(shallow.name) is shallow
+    assert resolve_catalog(starid.Catalog.deep(9.5).name) is starid.Catalog.deep(9.5)
+    with pytest.raises(FileNotFoundError, match="no such catalogue file"):
+        resolve_catalog("Hipparcos Hp<=12 J2000 (bundled)")
     wide = starid.identify(starid.simulate(seed=1).xy, fov_deg=12.0, image_size=(512, 512))
     assert wide.catalog == shallow.name
     # An explicit catalogue is used as given, and named.

@@ -535,11 +535,18 @@ CatalogLike = Union[Catalog, str, "os.PathLike[str]", None]
 
 
 def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":
-    """``None`` → the bundled catalogue, a path → :meth:`Catalog.load`, a Catalog → itself."""
+    """``None`` → the bundled catalogue, a path → :meth:`Catalog.load`, a Catalog → itself, a
+    bundled catalogue's name (as a result's ``catalog`` gives it) where no file has that name
+    → that bundled catalogue."""
     if catalog is None:
         return Catalog.default()
     if isinstance(catalog, Catalog):
         return catalog
+    if isinstance(catalog, str) and not os.path.exists(catalog):
+        m = _DEEP_NAME.fullmatch(catalog)
+        if m is not None and float(m.group(1)) <= BUNDLED_DEPTHS[-1]:
+            limit = float(m.group(1))
+            return Catalog.default() if limit == BUNDLED_DEPTHS[0] else Catalog.deep(limit)
     if isinstance(catalog, (str, os.PathLike)):
         return _load_cached(os.fspath(catalog))
     raise TypeError(f"catalog must be a starid.Catalog, a path or None, not {type(catalog).__name__}")

@@ -303,7 +303,8 @@ def refine(
 ) -> PointingFit:
     """Refine an identification over all its matched stars: attitude, focal length and, if
     asked, principal point and ``k1``, with the covariance. ``catalog`` must be the one used
-    to identify; ``image_size`` the sensor size.
+    to identify (None, or the result's ``catalog`` name, finds a bundled one); ``image_size``
+    the sensor size.
 
     Examples
     --------
