@@ -154,10 +154,11 @@ def identify(
         one found is reported as ``k1`` (and written to the WCS). False holds the given camera
         fixed.
     fov_tolerance : float
-        How far off ``fov_deg`` may be, relative (default 0.1: ±10 %). Where the given field
-        finds no solution, or one its residuals or unmatched stars put in doubt, the frame is
-        searched with the focal length unknown within the tolerance, and the field found
-        reported. 0 (or ``focal_check=False``) holds the field as given: for cameras known
+        How far off ``fov_deg`` may be, relative to the true field (default 0.1: ``fov_deg``
+        within ±10 % of it, so the field between ``fov_deg / 1.1`` and ``fov_deg / 0.9``).
+        Where the given field finds no solution, or one its residuals or unmatched stars put in
+        doubt, the frame is searched with the focal length unknown within the tolerance, and the
+        field found reported. 0 (or ``focal_check=False``) holds the field as given: for cameras known
         exactly, whose frames then cost no search beyond it. A calibrated camera (principal
         point off the centre, distortion) is held as given.
     learn_zero_point : bool

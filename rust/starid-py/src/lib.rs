@@ -274,7 +274,8 @@ impl PyIdentifyConfig {
     fn focal_check(&self) -> bool {
         self.inner.focal_check
     }
-    /// How far off (relative) the given field of view may be; 0 holds it as given.
+    /// How far off the given field of view may be, relative to the true one (0.1: the true field
+    /// between `fov / 1.1` and `fov / 0.9`); 0 holds it as given.
     #[getter]
     fn fov_tolerance(&self) -> f64 {
         self.inner.fov_tolerance

@@ -53,7 +53,8 @@ pub struct IdentifyConfig {
     /// and search the frame again with the one its residuals imply (the default; see
     /// [`scale`] and [`Identification::focal_length_px`]). `false` holds the camera fixed.
     pub focal_check: bool,
-    /// How far off the given field of view may be, relative (0.1: the field within ±10 %): a
+    /// How far off the given field of view may be, relative to the true one (0.1: the given
+    /// field within ±10 % of it, so the true one between `fov / 1.1` and `fov / 0.9`): a
     /// field of view is an estimate (a lens's nominal focal length, a crop, focus). Where the
     /// given camera finds no solution, or only one whose residuals needed a widened match radius
     /// and that leaves many spots unnamed, the frame is searched again with the focal length
@@ -242,12 +243,14 @@ impl IdentifyConfig {
         if !(self.focal_check && self.verify && self.fov_tolerance > 0.0 && camera.is_ideal()) {
             return (f, f);
         }
+        // The fields of which the given one is within the tolerance: given 10 % too small, the
+        // field is 1/0.9 of it, not 1.1.
         let fov = camera.fov_rad();
         let focal = |field: f64| 0.5 * camera.width_px / (0.5 * field).tan();
-        let widest = (fov * (1.0 + self.fov_tolerance)).min(170f64.to_radians());
+        let widest = (fov / (1.0 - self.fov_tolerance)).min(170f64.to_radians());
         (
             focal(widest).min(f),
-            focal(fov * (1.0 - self.fov_tolerance)).max(f),
+            focal(fov / (1.0 + self.fov_tolerance)).max(f),
         )
     }
 

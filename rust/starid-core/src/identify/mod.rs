@@ -416,4 +416,21 @@ mod tests {
         }
         assert!(IdentifyConfig::default().validate().is_ok());
     }
+
+    #[test]
+    fn the_tolerance_reaches_every_field_the_given_one_is_within_it_of() {
+        let camera = Camera::from_fov(10f64.to_radians(), 1000.0, 800.0).unwrap();
+        let focal = |fov_deg: f64| 500.0 / (0.5 * fov_deg.to_radians()).tan();
+        let (shortest, longest) = IdentifyConfig::default().focal_range_px(&camera);
+        // Given 10 % too small, the field is 10 / 0.9 degrees (not 11); 10 % too large, 10 / 1.1.
+        assert!((shortest / focal(10.0 / 0.9) - 1.0).abs() < 1e-12);
+        assert!((longest / focal(10.0 / 1.1) - 1.0).abs() < 1e-12);
+        assert!(shortest < focal(11.0));
+        let held = IdentifyConfig {
+            fov_tolerance: 0.0,
+            ..Default::default()
+        };
+        let f = camera.focal_length_px;
+        assert_eq!(held.focal_range_px(&camera), (f, f));
+    }
 }
