@@ -21,6 +21,12 @@ const SCALE_GRID_EDGE_PX: f64 = 0.75;
 /// that a frame with nothing to find spends about a millisecond a focal length.
 const SCALE_GRID_PAIRS: usize = 20_000;
 
+/// The most catalogue pairs a focal length of the grid may visit: [`SCALE_GRID_PAIRS`] for each
+/// spot beyond the [`SCALE_GRID_MIN_MATCHES`] a solution there needs. A frame of more spots
+/// (false ones among its brightest, where the search over the range failed) has more
+/// triangles to try before an all-real one comes up; one of barely enough spots has few.
+const SCALE_GRID_MAX_PAIRS: usize = 60_000;
+
 /// How far (a fraction of the given focal length) the first search over focal lengths looks,
 /// before the whole tolerance: a lens's nominal focal length, a sensor's crop or the focus is
 /// mostly off by less. On the peer scenarios with the field given 0.3-3 % off, it cuts the
@@ -353,7 +359,8 @@ impl Solver {
     /// The frame searched with the camera as given at the focal lengths of a grid about it,
     /// nearest first: steps that move a star at the half diagonal by `2 SCALE_GRID_EDGE_PX`,
     /// within the tolerance, at most [`SCALE_GRID_STEPS`] of them, each with a small budget
-    /// ([`SCALE_GRID_PAIRS`]). The search over the range finds a focal length from triangles
+    /// ([`SCALE_GRID_PAIRS`] a spot beyond the six a solution needs, at most
+    /// [`SCALE_GRID_MAX_PAIRS`]). The search over the range finds a focal length from triangles
     /// of the brightest spots and fails where those are half false; the fixed-focal search
     /// absorbs a scale error of a pixel or so at the edge and finds stars among false spots.
     /// Each solution's false-match bound is multiplied by the number of focal lengths in the
@@ -378,7 +385,14 @@ impl Solver {
         let scales = (grid.len() + 1) as f64;
         let each = IdentifyConfig {
             fov_tolerance: 0.0,
-            max_pairs_visited: config.max_pairs_visited.min(SCALE_GRID_PAIRS),
+            max_pairs_visited: config.max_pairs_visited.min(
+                (SCALE_GRID_PAIRS
+                    * centroids
+                        .len()
+                        .saturating_sub(SCALE_GRID_MIN_MATCHES)
+                        .max(1))
+                .min(SCALE_GRID_MAX_PAIRS),
+            ),
             max_false_match_prob: config.max_false_match_prob / scales,
             // The focal length is refined over the matches instead.
             focal_check: false,
