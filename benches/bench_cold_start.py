@@ -12,6 +12,7 @@ with the read / extract / identify times that the command itself prints.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import statistics
 import subprocess
@@ -22,9 +23,14 @@ from pathlib import Path
 STARID = [sys.executable, "-c", "import sys; from starid.cli import main; sys.exit(main())"]
 
 
+# Compiled modules, as an installed package has them: an editable install under
+# PYTHONDONTWRITEBYTECODE would compile every module of starid in every run.
+ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def wall(cmd: list[str]) -> tuple[float, str]:
     t = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    out = subprocess.run(cmd, capture_output=True, text=True, check=False, env=ENV)
     return time.perf_counter() - t, out.stdout
 
 
