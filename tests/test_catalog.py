@@ -235,6 +235,9 @@ def test_catalog_none_is_deep_enough_for_the_field() -> None:
     assert resolve_catalog(starid.Catalog.deep(9.5).name) is starid.Catalog.deep(9.5)
     with pytest.raises(FileNotFoundError, match="no such catalogue file"):
         resolve_catalog("Hipparcos Hp<=12 J2000 (bundled)")
+    for malformed in ("Hipparcos Hp<=1.2.3 J2000 (bundled)", "Hipparcos Hp<=. J2000 (bundled)"):
+        with pytest.raises(FileNotFoundError, match="no such catalogue file"):
+            resolve_catalog(malformed)
     wide = starid.identify(starid.simulate(seed=1).xy, fov_deg=12.0, image_size=(512, 512))
     assert wide.catalog == shallow.name
     # An explicit catalogue is used as given, and named.

@@ -26,7 +26,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 _default: Optional["Catalog"] = None
 # The bundled deep catalogues by magnitude limit, each cut once from the core's Hp <= 11 table.
 _deep: "dict[float, Catalog]" = {}
-_DEEP_NAME = re.compile(r"Hipparcos Hp<=([0-9.]+) J2000 \(bundled\)")
+_DEEP_NAME = re.compile(r"Hipparcos Hp<=([0-9]+(?:\.[0-9]+)?) J2000 \(bundled\)")
 
 #: The magnitude limits of the bundled catalogues ``catalog=None`` chooses among, shallowest
 #: first: :meth:`Catalog.default`, :meth:`Catalog.deep` and ``Catalog.deep(11.0)``.
@@ -524,10 +524,19 @@ def resolve_catalog_of(catalog: Union["Catalog", PathLike, None], result: Any) -
     """As :func:`resolve_catalog`, but ``None`` → the bundled catalogue ``result`` (an
     identification) was made with, by its ``catalog`` name."""
     if catalog is None:
-        m = _DEEP_NAME.fullmatch(getattr(result, "catalog", None) or "")
-        if m is not None and float(m.group(1)) != BUNDLED_DEPTHS[0]:
-            return Catalog.deep(float(m.group(1)))
+        named = _bundled_named(getattr(result, "catalog", None) or "")
+        if named is not None:
+            return named
     return resolve_catalog(catalog)
+
+
+def _bundled_named(name: str) -> Optional["Catalog"]:
+    """The bundled catalogue of this name (as a result's ``catalog`` gives it), or None."""
+    m = _DEEP_NAME.fullmatch(name)
+    if m is None or float(m.group(1)) > BUNDLED_DEPTHS[-1]:
+        return None
+    limit = float(m.group(1))
+    return Catalog.default() if limit == BUNDLED_DEPTHS[0] else Catalog.deep(limit)
 
 
 #: What a ``catalog`` argument may be: a Catalog, a file, or None (chosen by starid).
@@ -543,10 +552,9 @@ def resolve_catalog(catalog: Union["Catalog", PathLike, None]) -> "Catalog":
     if isinstance(catalog, Catalog):
         return catalog
     if isinstance(catalog, str) and not os.path.exists(catalog):
-        m = _DEEP_NAME.fullmatch(catalog)
-        if m is not None and float(m.group(1)) <= BUNDLED_DEPTHS[-1]:
-            limit = float(m.group(1))
-            return Catalog.default() if limit == BUNDLED_DEPTHS[0] else Catalog.deep(limit)
+        named = _bundled_named(catalog)
+        if named is not None:
+            return named
     if isinstance(catalog, (str, os.PathLike)):
         return _load_cached(os.fspath(catalog))
     raise TypeError(f"catalog must be a starid.Catalog, a path or None, not {type(catalog).__name__}")

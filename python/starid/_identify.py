@@ -158,9 +158,9 @@ def identify(
         within ±10 % of it, so the field between ``fov_deg / 1.1`` and ``fov_deg / 0.9``).
         Where the given field finds no solution, or one its residuals or unmatched stars put in
         doubt, the frame is searched with the focal length unknown within the tolerance, and the
-        field found reported. 0 (or ``focal_check=False``) holds the field as given: for cameras known
-        exactly, whose frames then cost no search beyond it. A calibrated camera (principal
-        point off the centre, distortion) is held as given.
+        field found reported. 0 (or ``focal_check=False``) holds the field as given: for cameras
+        known exactly, whose frames then cost no search beyond it. A calibrated camera
+        (principal point off the centre, distortion) is held as given.
     learn_zero_point : bool
         :func:`identify_many` only (default True): with ``mag_offset=None`` (or one the
         magnitudes do not fit), the frames identified from the brightness order alone measure

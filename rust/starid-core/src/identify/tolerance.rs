@@ -383,16 +383,14 @@ impl Solver {
             .collect();
         // The given focal length was tried already: it counts among the grid's.
         let scales = (grid.len() + 1) as f64;
+        let beyond_needed = centroids
+            .len()
+            .saturating_sub(SCALE_GRID_MIN_MATCHES)
+            .max(1);
+        let pairs = (SCALE_GRID_PAIRS * beyond_needed).min(SCALE_GRID_MAX_PAIRS);
         let each = IdentifyConfig {
             fov_tolerance: 0.0,
-            max_pairs_visited: config.max_pairs_visited.min(
-                (SCALE_GRID_PAIRS
-                    * centroids
-                        .len()
-                        .saturating_sub(SCALE_GRID_MIN_MATCHES)
-                        .max(1))
-                .min(SCALE_GRID_MAX_PAIRS),
-            ),
+            max_pairs_visited: config.max_pairs_visited.min(pairs),
             max_false_match_prob: config.max_false_match_prob / scales,
             // The focal length is refined over the matches instead.
             focal_check: false,
