@@ -227,8 +227,11 @@ pub const HOSTILE_LOOSE_STARS: usize = 30;
 /// the false-match bound.
 pub const TIGHT_MAG_FRACTION: f64 = 0.25;
 
-/// Most triangles of the magnitude-gated pass at one step of the ladder.
-pub const HOSTILE_TRIANGLES: usize = 60_000;
+/// Most triangles of the magnitude-gated pass at one step of the ladder: every triangle of its
+/// [`HOSTILE_SEARCH_STARS`] (its pairs budget bounds the work). A frame of a handful of faint
+/// stars among 80 brighter false spots has its first all-real triangle beyond the first 60 000.
+pub const HOSTILE_TRIANGLES: usize =
+    HOSTILE_SEARCH_STARS * (HOSTILE_SEARCH_STARS - 1) * (HOSTILE_SEARCH_STARS - 2) / 6;
 
 /// Brightest centroids a hypothesis's confirming stars are looked for among.
 pub const CONFIRM_POOL: usize = 128;
