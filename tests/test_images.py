@@ -380,6 +380,30 @@ def test_identify_many_takes_images(tmp_path: Path) -> None:
         assert np.array_equal(starid.identify(im, fov_deg=12.0).ids, r.ids)  # as one by one
 
 
+def test_images_of_an_unknown_field_or_with_hints_are_one_core_batch_as_one_by_one() -> None:
+    # Two sensor sizes: each size is its own batch, the results in input order.
+    sims = [
+        starid.simulate_image(fov_deg=12.0, image_size=size, seed=s)
+        for s, size in enumerate([(640, 480), (800, 600), (640, 480)])
+    ]
+    imgs = [im for im, _ in sims]
+    unknown = starid.identify_many(imgs, fov_range_deg=(10.0, 14.0))
+    assert [r.status for r in unknown] == ["identified"] * 3
+    for im, r, (_, truth) in zip(imgs, unknown, sims):
+        one = starid.identify(im, fov_range_deg=(10.0, 14.0))
+        assert np.array_equal(one.ids, r.ids)
+        assert abs(r.fov_deg - 12.0) < 0.05 and np.hypot(r.ra_deg - truth.ra_deg, r.dec_deg - truth.dec_deg) < 0.05
+    # One hint per image (None: lost in space), as many as the images, kept with its image.
+    hints = [(truth.ra_deg + 0.3, truth.dec_deg, truth.roll_deg) for _, truth in sims]
+    hints[1] = None
+    hinted = starid.identify_many(imgs, fov_deg=12.0, attitude_hint=hints, hint_fallback=False)
+    assert [r.status for r in hinted] == ["identified"] * 3
+    for im, h, r in zip(imgs, hints, hinted):
+        one = starid.identify(im, fov_deg=12.0, attitude_hint=h, hint_fallback=False)
+        assert np.array_equal(one.ids, r.ids) and one.method == r.method
+    assert hinted[1].method != hinted[0].method  # the hint-less image was identified lost in space
+
+
 def test_a_batch_of_images_learns_their_zero_point() -> None:
     # 30 false spots per image: from the brightness order alone about half are identified; the
     # spots' instrument magnitudes share a zero point, which those frames measure for the rest.

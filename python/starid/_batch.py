@@ -33,7 +33,7 @@ from ._args import (
     _positive,
     _xy,
 )
-from .images import extract_centroids, identify_image, rough_field_applies, settings_of
+from .images import extract_centroids, rough_field_applies, settings_of
 
 T = TypeVar("T")
 
@@ -194,11 +194,10 @@ def _pooled(magnitudes: Optional[Sequence[Any]]) -> Optional[npt.NDArray[np.floa
 def _image_batch(
     images: Sequence[Any], catalog: CatalogLike, fov_deg: Optional[float], threads: Optional[int], kwargs: dict[str, Any]
 ) -> list[Identification]:
-    """Images read, extracted and identified on a thread pool, results in input order."""
+    """Images read and extracted on a thread pool (the core releases the GIL), then their spots
+    identified by the core's batch, one batch per image size; results in input order."""
     if threads is not None and int(threads) < 1:
         raise InvalidInputError(f"threads must be at least 1 (or None for all cores), got {threads}")
-    if kwargs.get("image_size") is None:
-        kwargs.pop("image_size")
     cat = None if catalog is None else resolve_catalog(catalog)
 
     def named(i: int, message: Any) -> str:
@@ -206,23 +205,13 @@ def _image_batch(
         name = os.fspath(images[i]) if isinstance(images[i], (str, os.PathLike)) else f"image {i}"
         return str(message) if str(name) in str(message) else f"{name}: {message}"
 
-    def one(i: int) -> Identification:
-        try:
-            return identify_image(images[i], cat, fov_deg, **kwargs).identification
-        except (ValueError, OSError, ImportError) as e:
-            return _invalid(named(i, e), 0)
-
     workers = (os.cpu_count() or 1) if threads is None else int(threads)
-    known_camera = kwargs.get("camera") is not None or fov_deg is not None
-    if not known_camera or kwargs.get("attitude_hint") is not None or kwargs.get("fov_range_deg") is not None:
-        return _map_threads(one, len(images), workers)
-    # A known camera: the spots of every image first, then the centroid lists identified as one
-    # batch per image size (identify_many), so that the images teach the batch their zero point
-    # (``learn_zero_point``).
+    # The spots of every image first, then the centroid lists identified as one batch per image
+    # size (identify_many): a known camera's images teach the batch their zero point
+    # (``learn_zero_point``), and an unknown field's are searched stage by stage together.
     extract_kw = dict(kwargs.pop("extract", None) or {}, dark=kwargs.pop("dark", None), flat=kwargs.pop("flat", None))
     size = kwargs.pop("image_size", None)
-    kwargs.pop("attitude_hint", None)
-    kwargs.pop("fov_range_deg", None)
+    hints = _per_frame_hints(kwargs.get("attitude_hint"), len(images))
     kwargs.setdefault("mag_offset", None)
 
     def spots(i: int) -> Any:
@@ -245,9 +234,12 @@ def _image_batch(
     for sz, idx in by_size.items():
         cents = [found[i] for i in idx]
         mags = [c.magnitudes if np.isfinite(c.magnitudes).all() else None for c in cents]
+        group = dict(kwargs)
+        if hints is not None:
+            group["attitude_hint"] = [hints[i] for i in idx]
         batch = identify_many(
             [c.xy for c in cents], cat, fov_deg, None if kwargs.get("camera") is not None else sz,
-            magnitudes=mags, threads=threads, **kwargs,
+            magnitudes=mags, threads=threads, **group,
         )
         # Images the field as given found nothing in: searched again over the tolerance's range.
         rough = [k for k, r in enumerate(batch) if fov_deg is not None and rough_field_applies(r, fov_deg, kwargs)]
@@ -262,6 +254,15 @@ def _image_batch(
                 r = _invalid(named(i, r.message), len(r.ids))
             results[i] = r._with_times(found[i].read_s, found[i].extract_s)
     return cast(list[Identification], results)
+
+
+def _per_frame_hints(attitude_hint: Any, n: int) -> Optional[list[Any]]:
+    """``attitude_hint`` as one hint per frame where it is a list of them (None where it is one
+    hint for every frame, or none)."""
+    per_frame = isinstance(attitude_hint, (list, tuple)) and len(attitude_hint) == n and not (
+        n in (3, 4) and all(isinstance(v, numbers.Real) for v in attitude_hint)
+    )
+    return list(attitude_hint) if per_frame else None
 
 
 def _map_threads(fn: Callable[[int], T], n: int, workers: int) -> list[T]:
@@ -286,11 +287,7 @@ def _hinted_batch(
     threads: Optional[int],
 ) -> list[Identification]:
     """Frames with attitude hints, identified by the core in parallel (Ctrl-C stops them)."""
-    per_frame = isinstance(attitude_hint, (list, tuple)) and len(attitude_hint) == len(xys) and not (
-        len(xys) in (3, 4) and all(isinstance(v, numbers.Real) for v in attitude_hint)
-    )
-    hints = [
-        None if h is None else _hint(h) for h in (attitude_hint if per_frame else [attitude_hint] * len(xys))
-    ]
+    each = _per_frame_hints(attitude_hint, len(xys))
+    hints = [None if h is None else _hint(h) for h in (each if each is not None else [attitude_hint] * len(xys))]
     return _starid.identify_hinted_many(cat._native, xys, mags, cam, cfg, hints, uncertainty_deg, fallback, threads)
 
