@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -358,6 +359,42 @@ def test_a_close_double_is_deblended() -> None:
         assert np.hypot(got[0] - x, got[1] - y) < 0.3
     whole = starid.extract_centroids(img.astype(np.float32), deblend=False, drop_flagged=False)
     assert len(whole) == 1
+
+
+def test_the_index_loads_while_the_image_is_read(tmp_path: Path) -> None:
+    from PIL import Image
+
+    from starid._read import image_size_of
+    from starid.images import warm_index
+
+    img, _ = starid.simulate_image(fov_deg=12.0, image_size=(640, 480), seed=1)
+    png, jpg, bad = tmp_path / "a.png", tmp_path / "a.jpg", tmp_path / "b.png"
+    Image.fromarray(np.clip(img, 0, 65535).astype(np.uint16)).save(png)
+    Image.fromarray(np.clip(img / 256, 0, 255).astype(np.uint8)).save(jpg)
+    bad.write_bytes(b"not a png at all, but long enough")
+    assert image_size_of(png) == image_size_of(jpg) == image_size_of(img) == (640.0, 480.0)
+    assert image_size_of(bad) is None and image_size_of(tmp_path / "missing.png") is None
+    fifo = tmp_path / "pipe.png"
+    os.mkfifo(fifo)
+    assert image_size_of(fifo) is None  # never opened: it would wait for a writer
+    # Nothing known ahead: no thread.
+    assert warm_index(png, None, None, {}) is None
+    assert warm_index(png, None, 12.0, {"fov_range_deg": (10.0, 14.0)}) is None
+    assert warm_index(png, None, 12.0, {"mag_offset": 2.0}) is None  # the spots may choose a deeper catalogue
+    assert warm_index(bad, None, 12.0, {}) is None
+    cat = starid.Catalog.default().filter(6.0)  # a catalogue of its own: no index built yet
+    before = starid.index_cache_dir()
+    starid.set_index_cache_dir(tmp_path / "cache")
+    try:
+        thread = warm_index(png, cat, 12.0, {"mag_offset": None})
+        assert thread is not None
+        thread.join()
+        # Built by the thread (and written to the disk cache), before any identification.
+        assert len(starid.index_cache_files()) == 1
+        assert starid.identify(png, cat, 12.0).ok
+        assert len(starid.index_cache_files()) == 1
+    finally:
+        starid.set_index_cache_dir(before)
 
 
 def test_identify_many_takes_images(tmp_path: Path) -> None:

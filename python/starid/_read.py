@@ -119,6 +119,36 @@ LUMA_WEIGHTS = (0.299, 0.587, 0.114)
 _NATIVE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
 
 
+def image_size_of(image: Any) -> "tuple[float, float] | None":
+    """An image's (width, height) without decoding its pixels: an array's shape, a PNG's
+    header, or Pillow's reading of a JPEG's or TIFF's; None where that is not at hand (FITS,
+    an unreadable file: reading it says what is wrong)."""
+    if isinstance(image, np.ndarray):
+        return (float(image.shape[1]), float(image.shape[0])) if image.ndim in (2, 3) else None
+    if not isinstance(image, (str, os.PathLike)):
+        return None
+    name = os.fspath(image).lower()
+    if not os.path.isfile(image):
+        return None  # (a pipe or a device is refused by the read, never opened here)
+    try:
+        if name.endswith(".png"):
+            with open(image, "rb") as fh:
+                head = fh.read(24)
+            if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+                return (float(int.from_bytes(head[16:20], "big")), float(int.from_bytes(head[20:24], "big")))
+            return None
+        if name.endswith(tuple(_PIL_SUFFIXES)):
+            from PIL import Image
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # the read warns, if there is cause
+                with Image.open(image) as im:
+                    return (float(im.size[0]), float(im.size[1]))
+    except Exception:  # a probe: the read reports what is wrong with the file
+        return None
+    return None
+
+
 def _as_image(arr: Any, name: str = "image") -> npt.NDArray[Any]:
     """A 2-D image from an array: (H, W), or (H, W, 3|4) colour → luminance (float32, in the
     core). uint8, uint16 and float32 stay as they are (the core reads them in place); other

@@ -24,7 +24,7 @@ from ._errors import InvalidInputError
 from ._cli_args import parser
 from ._files import refuse_overwriting, write_atomically
 from ._index_cache import clear_index_cache, index_cache_dir, index_cache_files
-from .images import extract_centroids, simulate_image
+from .images import extract_centroids, simulate_image, warm_index
 from .plot import annotate
 from .tracking import Tracker
 from .wcs import wcs_header
@@ -241,6 +241,8 @@ def _identify(args: argparse.Namespace) -> int:
     unreadable: dict[int, str] = {}
     sizes: dict[int, tuple[float, float]] = {}
     times: dict[int, tuple[float, float]] = {}
+    # The first image's catalogue and index load on a thread of their own while it is read.
+    warm = warm_index(files[min(images)], catalog, fov, {"camera": camera, "fov_range_deg": fov_range}) if images else None
     for k, path in enumerate(files):
         if show_progress and (k % 10 == 9 or k == len(files) - 1) and images:
             _progress(k + 1, len(files), None, time.perf_counter() - t0, "files read")
@@ -252,6 +254,8 @@ def _identify(args: argparse.Namespace) -> int:
         except ValueError as e:
             unreadable[k] = str(e)
             star_lists.append(None)
+    if warm is not None:
+        warm.join()
     bad_input = 0
 
     def solve_one(k: int) -> Identification:

@@ -12,6 +12,7 @@ True
 from __future__ import annotations
 
 import os
+import threading
 import time
 from dataclasses import dataclass
 from typing import Any, Optional, Union
@@ -21,10 +22,10 @@ import numpy.typing as npt
 
 from . import _starid
 from ._args import Identification, IdentifyConfig, _camera, _config, _flag, _whole
-from ._catalog import CatalogLike, PathLike, resolve_catalog, resolve_catalog_for
+from ._catalog import Catalog, CatalogLike, PathLike, catalog_for, resolve_catalog, resolve_catalog_for
 from ._centroids import FLAGS, Centroids
 from ._errors import InvalidInputError
-from ._read import LUMA_WEIGHTS, MAX_IMAGE_PIXELS, _as_image, _load, read_image
+from ._read import LUMA_WEIGHTS, MAX_IMAGE_PIXELS, _as_image, _load, image_size_of, read_image
 from ._simulate import Frame, _frame
 from ._solve import identify_centroids
 from ._unknown_field import identify_rough_field
@@ -175,7 +176,10 @@ def identify_image(
     :func:`extract_centroids` settings; other arguments as :func:`starid.identify`
     (``fov_deg`` omitted: searched in ``fov_range_deg``).
     """
+    warm = warm_index(image, catalog, fov_deg, kwargs)
     c = extract_centroids(image, dark=dark, flat=flat, **(extract or {}))
+    if warm is not None:
+        warm.join()
     size = kwargs.pop("image_size", None)
     if size is not None and tuple(float(v) for v in size) != c.image_size:
         raise InvalidInputError(f"image_size {size} differs from the image's {c.image_size}")
@@ -189,6 +193,37 @@ def identify_image(
             again = identify_rough_field(catalog, [c.xy], [mags], c.image_size, float(fov_deg), settings_of(kwargs), None)[0]
             res = res if again is None else again
     return ImageIdentification(res._with_times(c.read_s, c.extract_s), c, kwargs.get("camera"))
+
+
+def warm_index(image: Any, catalog: CatalogLike, fov_deg: Optional[float], kwargs: dict[str, Any]) -> Optional[threading.Thread]:
+    """Start loading what identifying ``image`` will need (the catalogue starid chooses for the
+    field, its pair index from the disk cache) on a thread of its own, while the image is read
+    and its spots extracted on this one; join it before identifying. None where the image's
+    field, size or catalogue is not known ahead (a range, a hint, a zero point given, which
+    may choose a deeper catalogue from the spots). Best effort: the identification reports
+    whatever goes wrong."""
+    camera = kwargs.get("camera")
+    if (fov_deg is None and camera is None) or kwargs.get("fov_range_deg") is not None:
+        return None
+    if kwargs.get("attitude_hint") is not None or kwargs.get("mag_offset") is not None:
+        return None
+    if catalog is not None and not isinstance(catalog, Catalog):
+        return None
+    size = camera.image_size if camera is not None else image_size_of(image)
+    if size is None:
+        return None
+
+    def load() -> None:
+        try:
+            cam = camera if camera is not None else _camera(None, fov_deg, size)
+            cat = catalog if catalog is not None else catalog_for(cam.fov_deg, cam.image_size)
+            cat._native.index_info(cam.diagonal_fov_deg, False)
+        except Exception:  # the identification meets it again and reports it
+            pass
+
+    thread = threading.Thread(target=load, name="starid-warm-index", daemon=True)
+    thread.start()
+    return thread
 
 
 def rough_field_applies(res: Identification, fov_deg: Optional[float], kwargs: dict[str, Any]) -> bool:
