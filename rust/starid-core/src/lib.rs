@@ -69,7 +69,8 @@ pub mod pointing;
 pub mod simulate;
 pub(crate) mod sky;
 pub mod tracking;
-pub mod unknown_focal;
+/// The focal-length search (a field of view not known), part of identification.
+pub use identify::unknown_focal;
 
 pub use catalog::Catalog;
 pub use error::{Error, ErrorKind, Result};

@@ -72,6 +72,7 @@ mod solver;
 mod stats;
 mod stored;
 mod tolerance;
+pub mod unknown_focal;
 mod verify;
 mod voting;
 

@@ -237,9 +237,9 @@ impl Solver {
         &self,
         call: Call<'_>,
         id: &mut Identification,
-        ranged: Option<crate::unknown_focal::FocalIdentification>,
+        ranged: Option<super::unknown_focal::FocalIdentification>,
         grid: bool,
-    ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
+    ) -> Result<Option<super::unknown_focal::FocalIdentification>> {
         let (centroids, magnitudes, camera, config, _) = call.parts();
         let (shortest, longest) = config.focal_range_px(camera);
         // A range a few percent wide needs a fraction of the work of a field unknown across
@@ -329,7 +329,7 @@ impl Solver {
         call: Call<'_>,
         (shortest, longest): (f64, f64),
         config: &IdentifyConfig,
-    ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
+    ) -> Result<Option<super::unknown_focal::FocalIdentification>> {
         let (centroids, magnitudes, camera, _, _) = call.parts();
         let f0 = camera.focal_length_px;
         let range = (
@@ -369,8 +369,8 @@ impl Solver {
     fn search_scale_grid(
         &self,
         call: Call<'_>,
-        before: &crate::unknown_focal::FocalIdentification,
-    ) -> Result<Option<crate::unknown_focal::FocalIdentification>> {
+        before: &super::unknown_focal::FocalIdentification,
+    ) -> Result<Option<super::unknown_focal::FocalIdentification>> {
         let (centroids, magnitudes, camera, config, start) = call.parts();
         let (shortest, longest) = config.focal_range_px(camera);
         let f0 = camera.focal_length_px;
@@ -432,7 +432,7 @@ impl Solver {
                 continue;
             }
             id.hypotheses = hypotheses;
-            return Ok(Some(crate::unknown_focal::FocalIdentification {
+            return Ok(Some(super::unknown_focal::FocalIdentification {
                 identification: id,
                 camera: Some(cam),
                 fit: Some(fit),

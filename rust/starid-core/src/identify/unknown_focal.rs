@@ -28,12 +28,12 @@ use std::time::Instant;
 
 use nalgebra::{Vector2, Vector3};
 
-use crate::error::{Error, Result};
-use crate::geometry::Camera;
-use crate::identify::{
+use super::{
     binomial_tail, stop_now, validate_centroids, Call, Identification, IdentifyConfig, Solver,
     Status,
 };
+use crate::error::{Error, Result};
+use crate::geometry::Camera;
 use crate::kvector::AngleWindow;
 use crate::pointing::{focal_for_angle, refine_pointing, PointingFit, RefineOptions};
 use crate::sky::Radius;
@@ -176,7 +176,7 @@ impl Solver {
             )));
         }
         let n = centroids.len();
-        if n < crate::identify::MIN_CENTROIDS {
+        if n < super::MIN_CENTROIDS {
             return Ok(FocalIdentification {
                 identification: Identification::unidentified(
                     Status::TooFewStars,
@@ -326,7 +326,7 @@ impl Solver {
                                 continue;
                             }
                             id.elapsed = start.elapsed();
-                            id.noise_source = crate::identify::NoiseSource::of(config, &id);
+                            id.noise_source = super::NoiseSource::of(config, &id);
                             return Ok(FocalIdentification {
                                 identification: id,
                                 camera: Some(camera),
@@ -436,7 +436,7 @@ struct FocalSearch<'a> {
     closed: usize,
     /// When the search must stop (time limit, cancel flag): checked within a triangle too,
     /// whose catalogue pairs may number hundreds of thousands at a long base.
-    stop: (Option<Instant>, Option<&'a crate::identify::Cancel>),
+    stop: (Option<Instant>, Option<&'a super::Cancel>),
 }
 
 impl FocalSearch<'_> {
