@@ -361,6 +361,18 @@ def test_a_close_double_is_deblended() -> None:
     assert len(whole) == 1
 
 
+def test_extraction_defaults_are_the_cores_and_its_checks_name_the_setting() -> None:
+    img, _ = starid.simulate_image(fov_deg=12.0, image_size=(320, 240), seed=2, hot_pixels=5)
+    d = starid.images.EXTRACT_DEFAULTS
+    assert d["threshold_sigma"] > 0 and d["max_spots"] >= 1 and d["saturation"] is None
+    plain, stated = starid.extract_centroids(img), starid.extract_centroids(img, **d)
+    assert len(plain) > 0 and np.array_equal(plain.xy, stated.xy) and np.array_equal(plain.flags, stated.flags)
+    assert f"threshold_sigma={d['threshold_sigma']!r}" in (starid.extract_centroids.__doc__ or "")
+    for name, bad in [("hot_pixel_ratio", 1.0), ("hot_pixel_ratio", -0.1), ("threshold_sigma", 0.0), ("filter_sigma_px", 11.0)]:
+        with pytest.raises(starid.InvalidInputError, match=name):
+            starid.extract_centroids(img, **{name: bad})
+
+
 def test_the_index_loads_while_the_image_is_read(tmp_path: Path) -> None:
     from PIL import Image
 

@@ -41,6 +41,7 @@ __all__ = [
     "quaternion_from_radec_roll",
     "result_columns",
     "extract_centroids",
+    "extract_defaults",
     "luminance",
     "read_png",
     "simulate_image",
@@ -570,17 +571,18 @@ def luminance(image: npt.NDArray[Any]) -> npt.NDArray[np.float32]: ...
 def read_png(path: Union[str, PathLike[str]], max_pixels: int) -> npt.NDArray[Any]: ...
 def extract_centroids(
     image: npt.NDArray[Any],
-    threshold_sigma: float = 5.0,
-    background_block: int = 32,
-    min_pixels: int = 1,
-    max_spots: int = 2000,
+    threshold_sigma: Optional[float] = None,
+    background_block: Optional[int] = None,
+    min_pixels: Optional[int] = None,
+    max_spots: Optional[int] = None,
     saturation: Optional[float] = None,
-    max_elongation: float = 3.0,
-    drop_flagged: bool = True,
-    hot_pixel_ratio: float = 0.25,
-    deblend: bool = True,
-    filter_sigma_px: float = 1.0,
+    max_elongation: Optional[float] = None,
+    drop_flagged: Optional[bool] = None,
+    hot_pixel_ratio: Optional[float] = None,
+    deblend: Optional[bool] = None,
+    filter_sigma_px: Optional[float] = None,
 ) -> dict[str, Any]: ...
+def extract_defaults() -> dict[str, Any]: ...
 def simulate_image(
     catalog: Catalog,
     camera: Camera,

@@ -32,7 +32,7 @@ from ._unknown_field import identify_rough_field
 from .plot import annotate
 from .wcs import wcs, wcs_header
 
-__all__ = ["FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
+__all__ = ["EXTRACT_DEFAULTS", "FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
 
 
 
@@ -71,18 +71,21 @@ def extract_centroids(
     *,
     dark: Optional[Union[npt.ArrayLike, PathLike]] = None,
     flat: Optional[Union[npt.ArrayLike, PathLike]] = None,
-    threshold_sigma: float = 5.0,
-    background_block: int = 32,
-    min_pixels: int = 1,
-    max_spots: int = 2000,
+    threshold_sigma: Optional[float] = None,
+    background_block: Optional[int] = None,
+    min_pixels: Optional[int] = None,
+    max_spots: Optional[int] = None,
     saturation: Optional[float] = None,
-    max_elongation: float = 3.0,
-    drop_flagged: bool = True,
-    hot_pixel_ratio: float = 0.25,
-    deblend: bool = True,
-    filter_sigma_px: float = 1.0,
+    max_elongation: Optional[float] = None,
+    drop_flagged: Optional[bool] = None,
+    hot_pixel_ratio: Optional[float] = None,
+    deblend: Optional[bool] = None,
+    filter_sigma_px: Optional[float] = None,
 ) -> Centroids:
     """The star spots of an image (array or file), brightest first.
+
+    A setting left None takes the core's default (:data:`EXTRACT_DEFAULTS`, listed below);
+    ``saturation`` None is no saturation level.
 
     ``dark`` (a dark or median frame) is subtracted and ``flat`` divided out (normalised to
     its median) before extraction; non-finite pixels (a clipped or masked background) take the
@@ -127,16 +130,16 @@ def extract_centroids(
             img = np.where(finite, img, np.float32(np.median(img[finite]))).astype(np.float32)
     raw: dict[str, Any] = _starid.extract_centroids(
         img,
-        float(threshold_sigma),
-        _whole("background_block", background_block),
-        _whole("min_pixels", min_pixels),
-        _whole("max_spots", max_spots),
-        None if saturation is None else float(saturation),
-        float(max_elongation),
-        _flag("drop_flagged", drop_flagged),
-        float(hot_pixel_ratio),
-        _flag("deblend", deblend),
-        float(filter_sigma_px),
+        _maybe(float, threshold_sigma),
+        _maybe(lambda v: _whole("background_block", v), background_block),
+        _maybe(lambda v: _whole("min_pixels", v), min_pixels),
+        _maybe(lambda v: _whole("max_spots", v), max_spots),
+        _maybe(float, saturation),
+        _maybe(float, max_elongation),
+        _maybe(lambda v: _flag("drop_flagged", v), drop_flagged),
+        _maybe(float, hot_pixel_ratio),
+        _maybe(lambda v: _flag("deblend", v), deblend),
+        _maybe(float, filter_sigma_px),
     )
     flux = np.asarray(raw["flux"], dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -193,6 +196,27 @@ def identify_image(
             again = identify_rough_field(catalog, [c.xy], [mags], c.image_size, float(fov_deg), settings_of(kwargs), None)[0]
             res = res if again is None else again
     return ImageIdentification(res._with_times(c.read_s, c.extract_s), c, kwargs.get("camera"))
+
+
+#: The extraction settings' defaults, as the core writes them (name → value).
+EXTRACT_DEFAULTS: dict[str, Any] = dict(_starid.extract_defaults())
+
+
+def _with_defaults(doc: Optional[str]) -> Optional[str]:
+    """``doc`` with the defaults listed before its examples."""
+    if doc is None:
+        return None
+    listed = "\n    Defaults: " + ", ".join(f"``{k}={v!r}``" for k, v in EXTRACT_DEFAULTS.items()) + ".\n"
+    at = doc.find("\n    >>>")
+    return doc + listed if at < 0 else doc[:at] + listed + doc[at:]
+
+
+extract_centroids.__doc__ = _with_defaults(extract_centroids.__doc__)
+
+
+def _maybe(convert: Any, value: Any) -> Any:
+    """``convert(value)``, or None for None (the core's default)."""
+    return None if value is None else convert(value)
 
 
 def warm_index(image: Any, catalog: CatalogLike, fov_deg: Optional[float], kwargs: dict[str, Any]) -> Optional[threading.Thread]:

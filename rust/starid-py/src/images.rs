@@ -93,6 +93,24 @@ pub fn read_png(
     })
 }
 
+/// The extraction settings' defaults, the core's [`ExtractConfig::default`]: name → value.
+#[pyfunction]
+pub fn extract_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = ExtractConfig::default();
+    let out = PyDict::new(py);
+    out.set_item("threshold_sigma", d.threshold_sigma)?;
+    out.set_item("background_block", d.background_block)?;
+    out.set_item("min_pixels", d.min_pixels)?;
+    out.set_item("max_spots", d.max_spots)?;
+    out.set_item("saturation", d.saturation)?;
+    out.set_item("max_elongation", d.max_elongation)?;
+    out.set_item("drop_flagged", d.drop_flagged)?;
+    out.set_item("hot_pixel_ratio", d.hot_pixel_ratio)?;
+    out.set_item("deblend", d.deblend)?;
+    out.set_item("filter_sigma_px", d.filter_sigma_px)?;
+    Ok(out)
+}
+
 /// Colour to luminance (ITU-R 601 weights): a (H, W, 3 or 4) array of uint8, uint16 or float32
 /// as a (H, W) float32 image, in one pass.
 #[pyfunction]
@@ -114,41 +132,39 @@ pub fn luminance<'py>(
 }
 
 /// The spots of a 2-D image (uint8, uint16 or float32, row-major): dict of arrays, brightest
-/// first.
+/// first. A setting left None takes the core's default ([`ExtractConfig::default`], listed by
+/// [`extract_defaults`]).
 #[pyfunction]
-#[pyo3(signature = (image, threshold_sigma=5.0, background_block=32, min_pixels=1, max_spots=2000,
-                    saturation=None, max_elongation=3.0, drop_flagged=true, hot_pixel_ratio=0.25,
-                    deblend=true, filter_sigma_px=1.0))]
+#[pyo3(signature = (image, threshold_sigma=None, background_block=None, min_pixels=None,
+                    max_spots=None, saturation=None, max_elongation=None, drop_flagged=None,
+                    hot_pixel_ratio=None, deblend=None, filter_sigma_px=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn extract_centroids<'py>(
     py: Python<'py>,
     image: &Bound<'py, PyAny>,
-    threshold_sigma: f64,
-    background_block: usize,
-    min_pixels: usize,
-    max_spots: usize,
+    threshold_sigma: Option<f64>,
+    background_block: Option<usize>,
+    min_pixels: Option<usize>,
+    max_spots: Option<usize>,
     saturation: Option<f64>,
-    max_elongation: f64,
-    drop_flagged: bool,
-    hot_pixel_ratio: f64,
-    deblend: bool,
-    filter_sigma_px: f64,
+    max_elongation: Option<f64>,
+    drop_flagged: Option<bool>,
+    hot_pixel_ratio: Option<f64>,
+    deblend: Option<bool>,
+    filter_sigma_px: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if !(hot_pixel_ratio.is_finite() && (0.0..1.0).contains(&hot_pixel_ratio)) {
-        return Err(InvalidInputError::new_err(format!(
-            "hot_pixel_ratio must be in [0, 1), got {hot_pixel_ratio}"
-        )));
-    }
+    let d = ExtractConfig::default();
     let cfg = ExtractConfig {
-        threshold_sigma,
-        background_block,
-        min_pixels,
-        max_spots,
-        saturation,
-        max_elongation,
-        drop_flagged,
-        hot_pixel_ratio,
-        deblend,
-        filter_sigma_px,
+        threshold_sigma: threshold_sigma.unwrap_or(d.threshold_sigma),
+        background_block: background_block.unwrap_or(d.background_block),
+        min_pixels: min_pixels.unwrap_or(d.min_pixels),
+        max_spots: max_spots.unwrap_or(d.max_spots),
+        saturation: saturation.or(d.saturation),
+        max_elongation: max_elongation.unwrap_or(d.max_elongation),
+        drop_flagged: drop_flagged.unwrap_or(d.drop_flagged),
+        hot_pixel_ratio: hot_pixel_ratio.unwrap_or(d.hot_pixel_ratio),
+        deblend: deblend.unwrap_or(d.deblend),
+        filter_sigma_px: filter_sigma_px.unwrap_or(d.filter_sigma_px),
     };
     let ex = if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u16>>() {
         extract_array(py, &a, &cfg)?

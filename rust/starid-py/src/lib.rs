@@ -636,6 +636,7 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(catalog::set_index_cache_dir, m)?)?;
     m.add_function(wrap_pyfunction!(catalog::index_cache_dir, m)?)?;
     m.add_function(wrap_pyfunction!(images::extract_centroids, m)?)?;
+    m.add_function(wrap_pyfunction!(images::extract_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(images::luminance, m)?)?;
     m.add_function(wrap_pyfunction!(images::read_png, m)?)?;
     m.add_function(wrap_pyfunction!(images::simulate_image, m)?)?;

@@ -540,6 +540,12 @@ fn check(len: usize, width: usize, height: usize, config: &ExtractConfig) -> Res
             "saturation must be finite and max_elongation at least 1",
         ));
     }
+    if !(c.hot_pixel_ratio.is_finite() && (0.0..1.0).contains(&c.hot_pixel_ratio)) {
+        return Err(Error::invalid_input(format!(
+            "hot_pixel_ratio must be in [0, 1), got {}",
+            c.hot_pixel_ratio
+        )));
+    }
     if !(c.filter_sigma_px.is_finite() && (0.0..=10.0).contains(&c.filter_sigma_px)) {
         return Err(Error::invalid_input(format!(
             "filter_sigma_px must be in [0, 10] pixels, got {}",
