@@ -14,7 +14,8 @@ identification again, is held to ``max_false_match_prob`` over the number of sta
 
 from __future__ import annotations
 
-from typing import Any, Optional, Sequence, Union
+import functools
+from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -47,7 +48,9 @@ QUICK_STAGES: "tuple[tuple[tuple[float, float], float, int], ...]" = (
 )
 
 CatalogLike = Union[Catalog, PathLike, None]
-Stage = tuple[float, float, Catalog, Optional[int], Optional[int]]
+#: A stage: ``(lo, hi, its catalogue, spots or None for all, pair budget or None)``; the
+#: catalogue is loaded when the stage runs (a frame found earlier never loads the deeper ones).
+Stage = tuple[float, float, Callable[[], Catalog], Optional[int], Optional[int]]
 
 
 def bundled(depth: float) -> Catalog:
@@ -59,22 +62,32 @@ def stages(
     catalog: CatalogLike, fov_range: Optional[tuple[float, float]], size: tuple[float, float], full: bool = True
 ) -> list[Stage]:
     """The stages of a search: ``(lo, hi, catalogue, spots or None for all, pair budget or None
-    for the configured one)``. A range given keeps the quick stages within it; a catalogue
-    given is searched in every one; ``full=False`` leaves out the last, full search."""
+    for the configured one)``, each catalogue a function that loads it. A range given keeps the
+    quick stages within it; a catalogue given is searched in every one; ``full=False`` leaves
+    out the last, full search."""
     given = None if catalog is None else resolve_catalog(catalog)
     lo, hi = (0.0, 180.0) if fov_range is None else fov_range
     out: list[Stage] = []
-    seen: "set[tuple[float, float, int]]" = set()
+    seen: "set[tuple[float, float, float]]" = set()
     for (blo, bhi), depth, spots in QUICK_STAGES:
         a, b = max(lo, blo), min(hi, bhi)
-        cat = given if given is not None else bundled(depth)
-        if a < b and (a, b, id(cat)) not in seen:
-            seen.add((a, b, id(cat)))
-            out.append((a, b, cat, spots, STAGE_PAIRS))
+        key = (a, b, -1.0 if given is not None else depth)
+        if a < b and key not in seen:
+            seen.add(key)
+            out.append((a, b, _given_or(given, functools.partial(bundled, depth)), spots, STAGE_PAIRS))
     if full:
         lo, hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
-        out.append((lo, hi, given if given is not None else catalog_for(hi, size), None, None))
+        out.append((lo, hi, _given_or(given, functools.partial(catalog_for, hi, size)), None, None))
     return out
+
+
+def _given_or(given: Optional[Catalog], load: Callable[[], Catalog]) -> Callable[[], Catalog]:
+    """The catalogue given, or ``load`` to load the stage's own when it runs."""
+    return load if given is None else functools.partial(_itself, given)
+
+
+def _itself(catalog: Catalog) -> Catalog:
+    return catalog
 
 
 def _brightest(xy: npt.NDArray[np.float64], mags: Optional[npt.NDArray[np.float64]], k: int) -> npt.NDArray[np.intp]:
@@ -120,7 +133,7 @@ def identify_unknown_field(
     results: list[Any] = [None] * len(xys)
     spent = [0.0] * len(xys)
     todo = list(range(len(xys)))
-    for lo, hi, cat, spots, budget in plan:
+    for lo, hi, load, spots, budget in plan:
         if limit is not None:
             todo = [i for i in todo if results[i] is None or spent[i] < limit]
         if not todo:
@@ -134,6 +147,7 @@ def identify_unknown_field(
             None if spots is None or len(xys[i]) <= spots else _brightest(xys[i], mags[i], spots) for i in todo
         ]
         sub_xy = [xys[i] if p is None else xys[i][p] for i, p in zip(todo, picks)]
+        cat = load()
         sub_m = [_pick(mags[i], p) for i, p in zip(todo, picks)]
         found = _starid.identify_unknown_fov_many(cat._native, sub_xy, sub_m, w, h, lo, hi, stage_cfg, threads)
         left = []
