@@ -17,7 +17,7 @@
 //! more under valgrind) R more times (for profilers). `STARID_SIGMA_PX` states a centroid noise
 //! (`centroid_sigma_px`; the default is the noise ladder) and `STARID_NOISE_PX` the true one (the
 //! family's 0.2 px otherwise), `STARID_BATCH` identifies each family's scenes as one batch (learning the zero point and the
-//! noise), `STARID_FOV_TOLERANCE` the field of
+//! noise; `STARID_BATCH=N`, in batches of N scenes), `STARID_FOV_TOLERANCE` the field of
 //! view's tolerance (`fov_tolerance`; 0 holds the field as given). `STARID_MOVE_SPOTS=K` moves
 //! every spot but K real stars to a random place (frames made to be unidentifiable: the
 //! identified share is the rate of false reports), and `STARID_MAX_FALSE` sets
@@ -315,12 +315,23 @@ fn main() {
                 .iter()
                 .map(|f| (f.centroids.as_slice(), given_magnitudes(f)))
                 .collect();
-            let ids = solver
-                .identify_batch(&refs, &camera, &config, None)
-                .expect("batch");
+            // STARID_BATCH=N: batches of N scenes (any other value: one batch).
+            let size = std::env::var("STARID_BATCH")
+                .ok()
+                .and_then(|v| v.parse::<usize>().ok())
+                .filter(|&n| n > 0)
+                .unwrap_or(refs.len().max(1));
+            let ids: Vec<_> = refs
+                .chunks(size)
+                .flat_map(|chunk| {
+                    solver
+                        .identify_batch(chunk, &camera, &config, None)
+                        .expect("batch")
+                })
+                .collect();
             let learned: Vec<f64> = ids.iter().filter_map(|r| r.learned_sigma_px).collect();
             println!(
-                "{}: batch searched {} frames again with a learned noise of {:.3} px",
+                "{}: batches of {size} searched {} frames again with a learned noise (first {:.3} px)",
                 family.name(),
                 learned.len(),
                 learned.first().copied().unwrap_or(f64::NAN)
