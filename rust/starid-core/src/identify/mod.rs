@@ -192,8 +192,9 @@ pub const BRIGHT_WIDE_SEARCH_STARS: usize = 12;
 /// With magnitudes, a matched centroid brighter than its catalogue star (after the frame's
 /// instrument offset, the median over the matches) by more than this many magnitudes, or by
 /// [`MAG_OUTLIER_SIGMAS`] robust standard deviations if that is more, is not that star: usually
-/// a false star on the spot of a catalogue star too faint to be seen. One-sided: a star fainter
-/// than expected (saturated, variable) keeps its id.
+/// a false star on the spot of a catalogue star too faint to be seen. A star fainter than
+/// expected (saturated, variable) keeps its id, unless another star within the match radius
+/// fits the centroid's magnitude: a close double whose spots the positions do not tell apart.
 pub const MAG_BRIGHTER_LIMIT: f64 = 1.0;
 
 /// See [`MAG_BRIGHTER_LIMIT`].

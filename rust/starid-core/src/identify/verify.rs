@@ -176,7 +176,8 @@ impl Search<'_> {
         } else {
             0
         };
-        let dropped = self.drop_too_bright() + self.drop_joint_outliers(&r, obs, sigma) + unseen;
+        let dropped =
+            self.drop_too_bright(radius) + self.drop_joint_outliers(&r, obs, sigma) + unseen;
         if dropped > 0 {
             // Fewer matches: refit, and the bound below only grows.
             matched = self.collect_matched(obs);
@@ -477,8 +478,10 @@ impl Search<'_> {
     }
 
     /// With magnitudes, unmatch centroids far brighter than their catalogue star (see
-    /// [`MAG_BRIGHTER_LIMIT`]); returns how many.
-    pub(super) fn drop_too_bright(&mut self) -> usize {
+    /// [`MAG_BRIGHTER_LIMIT`]), and those as far fainter than their star where another star
+    /// within `radius` of the centroid fits its magnitude (a close double whose two spots the
+    /// positions alone do not tell apart: the spot may be the fainter star's). Returns how many.
+    pub(super) fn drop_too_bright(&mut self, radius: f64) -> usize {
         let Some(mags) = self.magnitudes else {
             return 0;
         };
@@ -495,8 +498,8 @@ impl Search<'_> {
         if n < MAG_CHECK_MIN_MATCHES {
             return 0;
         }
-        // Offsets within MAG_BRIGHTER_LIMIT of each other: none lies below the median by more
-        // than that, and the limit is at least that (the usual frame: no medians needed).
+        // Offsets within MAG_BRIGHTER_LIMIT of each other: none lies farther than that from the
+        // median, and the limit is at least that (the usual frame: no medians needed).
         let (lo, hi) = s
             .mag_offsets
             .iter()
@@ -506,12 +509,16 @@ impl Search<'_> {
         if hi - lo <= MAG_BRIGHTER_LIMIT {
             return 0;
         }
-        // Nor where the median is within MAG_BRIGHTER_LIMIT of the smallest offset: then no
-        // offset lies that far below it. Fewer than half the offsets above lo + 0.999 say so
-        // without a median (the margin far exceeds any rounding of the comparison below).
+        // Nor where the median is within MAG_BRIGHTER_LIMIT of both the smallest and the
+        // largest offset: then none lies that far from it. Fewer than half the offsets above
+        // lo + 0.999, and fewer than half below hi − 0.999, say so without a median (the
+        // margin far exceeds any rounding of the comparisons below).
         let k = n - n / 2;
         let above = lo + (MAG_BRIGHTER_LIMIT - 1e-3);
-        if s.mag_offsets.iter().filter(|&&d| d > above).count() < k {
+        let below = hi - (MAG_BRIGHTER_LIMIT - 1e-3);
+        if s.mag_offsets.iter().filter(|&&d| d > above).count() < k
+            && s.mag_offsets.iter().filter(|&&d| d < below).count() < k
+        {
             return 0;
         }
         let offset = median_in_place(&mut s.mag_offsets);
@@ -520,13 +527,23 @@ impl Search<'_> {
         }
         let spread = 1.4826 * median_in_place(&mut s.mag_offsets);
         let limit = MAG_BRIGHTER_LIMIT.max(MAG_OUTLIER_SIGMAS * spread);
+        let radius = Radius::new(radius);
         let mut dropped = 0;
-        for (m, &obs_mag) in s.matches.iter_mut().zip(mags) {
-            if let Some((star, _)) = *m {
-                if obs_mag - cat_mag[star as usize] < offset - limit {
-                    *m = None;
-                    dropped += 1;
-                }
+        for (o, (m, &obs_mag)) in s.matches.iter_mut().zip(mags).enumerate() {
+            let Some((star, _)) = *m else {
+                continue;
+            };
+            let off = obs_mag - cat_mag[star as usize];
+            let too_faint = off > offset + limit && {
+                let rival = match s.near.nearest_two(o, radius) {
+                    (Some((a, _)), Some((b, _))) => Some(if a == star { b } else { a }),
+                    _ => None,
+                };
+                rival.is_some_and(|c| (obs_mag - offset - cat_mag[c as usize]).abs() <= limit)
+            };
+            if off < offset - limit || too_faint {
+                *m = None;
+                dropped += 1;
             }
         }
         dropped
