@@ -252,8 +252,9 @@ impl Claims {
 }
 
 /// Whether centroid `o` may be catalogue star `star` in a pass gated by `gate` (always, ungated):
-/// a centroid may not be far brighter than its star (one-sided, as in `drop_too_bright`: a
-/// saturated or variable star fainter than expected keeps it).
+/// a centroid may not be far brighter than its star (one-sided: a saturated or variable star
+/// fainter than expected keeps it; `drop_magnitude_outliers` unnames such a match only where
+/// another star within the match radius fits the centroid's magnitude).
 #[inline]
 pub(super) fn gate_allows(gate: Option<&[[f32; 2]]>, mags: &[f32], o: usize, star: u32) -> bool {
     gate.is_none_or(|g| mags[star as usize] <= g[o][1])

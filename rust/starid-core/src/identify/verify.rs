@@ -176,8 +176,9 @@ impl Search<'_> {
         } else {
             0
         };
-        let dropped =
-            self.drop_too_bright(radius) + self.drop_joint_outliers(&r, obs, sigma) + unseen;
+        let dropped = self.drop_magnitude_outliers(radius)
+            + self.drop_joint_outliers(&r, obs, sigma)
+            + unseen;
         if dropped > 0 {
             // Fewer matches: refit, and the bound below only grows.
             matched = self.collect_matched(obs);
@@ -481,7 +482,7 @@ impl Search<'_> {
     /// [`MAG_BRIGHTER_LIMIT`]), and those as far fainter than their star where another star
     /// within `radius` of the centroid fits its magnitude (a close double whose two spots the
     /// positions alone do not tell apart: the spot may be the fainter star's). Returns how many.
-    pub(super) fn drop_too_bright(&mut self, radius: f64) -> usize {
+    pub(super) fn drop_magnitude_outliers(&mut self, radius: f64) -> usize {
         let Some(mags) = self.magnitudes else {
             return 0;
         };
