@@ -37,11 +37,21 @@ const NEAR_FOCAL_TOLERANCE: f64 = 0.03;
 /// first few thousand.
 const NEAR_FOCAL_PAIRS: usize = 5_000;
 
-/// Fewest spots a solution of the grid names. The union bound over the grid holds for spots
-/// that fall at random; a handful of spots shaped like a catalogue pattern at some scale is
-/// what a search over scales finds (five random points were once named five stars at a focal
-/// length of the grid), so the grid asks for more stars than a known field does.
-const SCALE_GRID_MIN_MATCHES: usize = 6;
+/// How far (a fraction of the given focal length) the grid's near focal lengths lie: they share
+/// half its false-match bound, the rest the other half ([`Solver::search_scale_grid`]).
+const SCALE_GRID_NEAR: f64 = 0.01;
+
+/// Fewest spots a solution of the grid names, with magnitudes: one more than a known field
+/// asks, as a handful of spots shaped like a catalogue pattern at some scale is what a search
+/// over scales finds. A narrow camera's faint frames name five stars among 70-90 noise peaks;
+/// sets of random points with magnitudes (6-24 on 12° and 10° sensors, 6-100 on a 6° one) are
+/// named at none of the grid's focal lengths.
+const SCALE_GRID_MIN_MATCHES: usize = 5;
+
+/// Fewest spots a solution of the grid names from positions alone: the shape of five points
+/// is too little to tell a catalogue pattern at some scale from chance (five random points on
+/// a 12° sensor were named five stars at a focal length near the given one).
+const SCALE_GRID_MIN_MATCHES_UNORDERED: usize = 6;
 
 /// How far (radians) the roll of a solution matched at the centre only may be off, for the
 /// scale scan of [`Solver::field_in_doubt`].
@@ -359,12 +369,12 @@ impl Solver {
     /// The frame searched with the camera as given at the focal lengths of a grid about it,
     /// nearest first: steps that move a star at the half diagonal by `2 SCALE_GRID_EDGE_PX`,
     /// within the tolerance, at most [`SCALE_GRID_STEPS`] of them, each with a small budget
-    /// ([`SCALE_GRID_PAIRS`] a spot beyond the six a solution needs, at most
+    /// ([`SCALE_GRID_PAIRS`] a spot beyond the five a solution needs, six from positions alone, at most
     /// [`SCALE_GRID_MAX_PAIRS`]). The search over the range finds a focal length from triangles
     /// of the brightest spots and fails where those are half false; the fixed-focal search
     /// absorbs a scale error of a pixel or so at the edge and finds stars among false spots.
-    /// Each solution's false-match bound is multiplied by the number of focal lengths in the
-    /// grid (a union bound over them); `before` is the search over the range, whose work the
+    /// Each solution's false-match bound is multiplied by the number of focal lengths in its
+    /// half of the grid, and by two (a union bound over each half, see [`SCALE_GRID_NEAR`]); `before` is the search over the range, whose work the
     /// result adds to. The frame's time limit, counted from `start`, holds for the whole grid.
     fn search_scale_grid(
         &self,
@@ -381,17 +391,35 @@ impl Solver {
             .map(|s| f0 * s)
             .filter(|f| (shortest..=longest).contains(f))
             .collect();
-        // The given focal length was tried already: it counts among the grid's.
-        let scales = (grid.len() + 1) as f64;
-        let beyond_needed = centroids
-            .len()
-            .saturating_sub(SCALE_GRID_MIN_MATCHES)
-            .max(1);
+        // The given focal length was tried already: it counts among the grid's. A field is more
+        // often a little off than far off, so the bound is shared out in two halves: one over
+        // the focal lengths within [`SCALE_GRID_NEAR`] of the given one (the given one among
+        // them), one over the rest (a union bound over each half).
+        let near = grid
+            .iter()
+            .filter(|f| (*f / f0 - 1.0).abs() <= SCALE_GRID_NEAR)
+            .count()
+            + 1;
+        let far = grid.len() + 1 - near;
+        let halves = if far == 0 { 1.0 } else { 2.0 };
+        let scales_at = |f: f64| {
+            let share = if (f / f0 - 1.0).abs() <= SCALE_GRID_NEAR {
+                near
+            } else {
+                far
+            };
+            halves * share as f64
+        };
+        let needed = if magnitudes.is_some() {
+            SCALE_GRID_MIN_MATCHES
+        } else {
+            SCALE_GRID_MIN_MATCHES_UNORDERED
+        };
+        let beyond_needed = centroids.len().saturating_sub(needed).max(1);
         let pairs = (SCALE_GRID_PAIRS * beyond_needed).min(SCALE_GRID_MAX_PAIRS);
         let each = IdentifyConfig {
             fov_tolerance: 0.0,
             max_pairs_visited: config.max_pairs_visited.min(pairs),
-            max_false_match_prob: config.max_false_match_prob / scales,
             // The focal length is refined over the matches instead.
             focal_check: false,
             ..config.clone()
@@ -399,11 +427,13 @@ impl Solver {
         let mut hypotheses = before.identification.hypotheses;
         let deadline = config.timeout.map(|t| start + t);
         for f in grid {
+            let scales = scales_at(f);
             if stop_now(deadline, config.cancel.as_ref()) {
                 break;
             }
             let each = IdentifyConfig {
                 timeout: deadline.map(|d| d.saturating_duration_since(Instant::now())),
+                max_false_match_prob: config.max_false_match_prob / scales,
                 ..each.clone()
             };
             // Identified at the grid's focal length, chosen before the frame was seen: its bound
@@ -414,10 +444,7 @@ impl Solver {
             let first = self.identify_with(centroids, magnitudes, &cam, &each, false)?;
             hypotheses += first.hypotheses;
             let bound = first.false_match_probability * scales;
-            if !first.verified
-                || first.matched < SCALE_GRID_MIN_MATCHES
-                || bound > config.max_false_match_prob
-            {
+            if !first.verified || first.matched < needed || bound > config.max_false_match_prob {
                 continue;
             }
             // Then with the focal length refined over the stars matched, until it settles (the

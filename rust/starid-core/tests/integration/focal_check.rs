@@ -500,3 +500,48 @@ fn a_cluster_that_fits_a_field_given_off_does_not_name_far_spots_after_other_sta
         );
     }
 }
+
+#[test]
+fn five_stars_among_noise_peaks_a_field_given_slightly_off_are_found_on_the_grid() {
+    // Frames of five stars among 60 noise peaks as bright as all but the three brightest, as a
+    // narrow camera's faint frames give them, with the field given 0.4 % wide (a nominal value
+    // for a measured one). The search over the range works from triangles of the brightest
+    // spots, mostly noise here; the grid's focal lengths near the given one share half its
+    // bound, so five well-placed stars pass it where a bound shared over the whole grid fails.
+    use rand::SeedableRng;
+    let (catalog, truth, solver) = sensor(10.0, (1400.0, 1000.0));
+    let sim = SimConfig {
+        mag_limit: Some(5.2),
+        noise_px: 0.15,
+        mag_noise: 0.1,
+        ..Default::default()
+    };
+    let given = Camera::from_fov(10.04f64.to_radians(), 1400.0, 1000.0).unwrap();
+    let config = IdentifyConfig::default();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+    let (mut frames, mut identified) = (0, 0);
+    for seed in 0..400u64 {
+        let f = simulate(&catalog, &truth, &sim, seed).unwrap();
+        if f.centroids.len() != 5 {
+            continue;
+        }
+        let (xy, mags) = with_noise_peaks(&f, 60, 3, &mut rng);
+        let id = solver.identify(&xy, Some(&mags), &given, &config).unwrap();
+        frames += 1;
+        for (k, named) in id.catalog_index.iter().enumerate() {
+            if named.is_some() {
+                assert!(
+                    k < 5 && *named == f.catalog_index[k],
+                    "seed {seed}: spot {k}"
+                );
+            }
+        }
+        if id.is_identified() {
+            assert!(id.false_match_probability <= config.max_false_match_prob);
+            identified += 1;
+        }
+    }
+    assert!(frames >= 20, "{frames} frames of five stars");
+    // 25 of 25; a bound shared evenly over the grid, with six stars asked of it, names 15.
+    assert!(10 * identified >= 9 * frames, "{identified} of {frames}");
+}
