@@ -348,32 +348,18 @@ fn a_field_given_off_is_found_among_noise_peaks() {
         mag_noise: 0.2,
         ..Default::default()
     };
-    let config = IdentifyConfig::default();
     let mut rng = rand::rngs::StdRng::seed_from_u64(5);
     for off in [0.01, -0.02] {
         let given = Camera::from_fov((10.0f64 * (1.0 + off)).to_radians(), 1400.0, 1000.0).unwrap();
-        let mut identified = 0;
-        for seed in 0..20u64 {
-            let f = simulate(&catalog, &truth, &sim, seed).unwrap();
-            let (xy, mags) = with_noise_peaks(&f, 2000, 4, &mut rng);
-            let id = solver.identify(&xy, Some(&mags), &given, &config).unwrap();
-            let real = f.centroids.len();
-            for (k, named) in id.catalog_index.iter().enumerate() {
-                if named.is_some() {
-                    assert!(
-                        k < real && *named == f.catalog_index[k],
-                        "seed {seed}, {off:+}: spot {k} named wrong"
-                    );
-                }
-            }
-            if id.is_identified() {
-                identified += 1;
-                let focal = id.focal_length_px.expect("the focal length found");
-                assert!(
-                    (focal / truth.focal_length_px - 1.0).abs() < 1e-3,
-                    "seed {seed}, {off:+}: focal {focal}"
-                );
-            }
+        let frames = (0..20).map(|seed| simulate(&catalog, &truth, &sim, seed).unwrap());
+        let found = among_noise_peaks(&solver, &given, frames, (2000, 4), &mut rng);
+        let identified = found.len();
+        for (seed, id) in found {
+            let focal = id.focal_length_px.expect("the focal length found");
+            assert!(
+                (focal / truth.focal_length_px - 1.0).abs() < 1e-3,
+                "seed {seed}, {off:+}: focal {focal}"
+            );
         }
         // 18 of 20 each; the search over the range alone names 15 and 13.
         assert!(identified >= 17, "{off:+}: {identified} of 20");
@@ -460,6 +446,36 @@ fn with_noise_peaks(
     (xy, mags)
 }
 
+/// Each frame (numbered from 0) identified among `peaks.0` noise peaks as bright as all but its
+/// `peaks.1` brightest stars ([`with_noise_peaks`]) with the camera `given`: the frames
+/// identified, by number, each checked to name no spot wrong and to pass the default bound.
+fn among_noise_peaks(
+    solver: &Solver,
+    given: &Camera,
+    frames: impl IntoIterator<Item = SimFrame>,
+    peaks: (usize, usize),
+    rng: &mut rand::rngs::StdRng,
+) -> Vec<(usize, Identification)> {
+    let config = IdentifyConfig::default();
+    let mut found = Vec::new();
+    for (n, f) in frames.into_iter().enumerate() {
+        let (xy, mags) = with_noise_peaks(&f, peaks.0, peaks.1, rng);
+        let id = solver.identify(&xy, Some(&mags), given, &config).unwrap();
+        let peaks_unnamed = id.catalog_index[f.centroids.len()..]
+            .iter()
+            .all(Option::is_none);
+        assert!(
+            names_no_wrong_star(&id, &f) && peaks_unnamed,
+            "frame {n}: a spot named wrong"
+        );
+        if id.is_identified() {
+            assert!(id.false_match_probability <= config.max_false_match_prob);
+            found.push((n, id));
+        }
+    }
+    found
+}
+
 #[test]
 fn a_cluster_that_fits_a_field_given_off_does_not_name_far_spots_after_other_stars() {
     // Frames of a 20°/1024 px camera with a tight cluster (the Pleiades) near an edge. Given a
@@ -517,30 +533,13 @@ fn five_stars_among_noise_peaks_a_field_given_slightly_off_are_found_on_the_grid
         ..Default::default()
     };
     let given = Camera::from_fov(10.04f64.to_radians(), 1400.0, 1000.0).unwrap();
-    let config = IdentifyConfig::default();
     let mut rng = rand::rngs::StdRng::seed_from_u64(3);
-    let (mut frames, mut identified) = (0, 0);
-    for seed in 0..400u64 {
-        let f = simulate(&catalog, &truth, &sim, seed).unwrap();
-        if f.centroids.len() != 5 {
-            continue;
-        }
-        let (xy, mags) = with_noise_peaks(&f, 60, 3, &mut rng);
-        let id = solver.identify(&xy, Some(&mags), &given, &config).unwrap();
-        frames += 1;
-        for (k, named) in id.catalog_index.iter().enumerate() {
-            if named.is_some() {
-                assert!(
-                    k < 5 && *named == f.catalog_index[k],
-                    "seed {seed}: spot {k}"
-                );
-            }
-        }
-        if id.is_identified() {
-            assert!(id.false_match_probability <= config.max_false_match_prob);
-            identified += 1;
-        }
-    }
+    let of_five: Vec<SimFrame> = (0..400)
+        .map(|seed| simulate(&catalog, &truth, &sim, seed).unwrap())
+        .filter(|f| f.centroids.len() == 5)
+        .collect();
+    let frames = of_five.len();
+    let identified = among_noise_peaks(&solver, &given, of_five, (60, 3), &mut rng).len();
     assert!(frames >= 20, "{frames} frames of five stars");
     // 25 of 25; a bound shared evenly over the grid, with six stars asked of it, names 15.
     assert!(10 * identified >= 9 * frames, "{identified} of {frames}");
