@@ -214,8 +214,8 @@ def _again(
     fit = _starid.fit_pointing(
         radec, np.ascontiguousarray(xy[matched]), size[0], size[1], res.focal_px, True, False, False, res.mirrored, None
     )
-    if fit["converged"] and abs(fit["fov_deg"] / fov - 1) > 1e-6:
-        again = _starid.identify(cat._native, xy, mags, _starid.Camera(size, fit["fov_deg"]), cfg)
+    if fit.converged and abs(fit.fov_deg / fov - 1) > 1e-6:
+        again = _starid.identify(cat._native, xy, mags, _starid.Camera(size, fit.fov_deg), cfg)
         res = again if again.ok else res
-    sigma = float(fit["focal_sigma_px"]) if fit["converged"] else float(found.focal_sigma_px)
+    sigma = fit.focal_sigma_px if fit.converged else float(found.focal_sigma_px)
     return res._restated(None, res.time_s, 1.0, sigma)

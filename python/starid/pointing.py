@@ -26,7 +26,6 @@ axes (or the local east and north for :class:`BoresightSolution`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, Optional, Union
 
 import numpy as np
@@ -51,54 +50,9 @@ __all__ = [
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 
 
-@dataclass(frozen=True)
-class BoresightSolution:
-    """One solution of :func:`boresight_from_distances`.
-
-    Attributes
-    ----------
-    ra_deg, dec_deg : float
-        The boresight.
-    focal_px : float
-        The focal length: the given one, or the estimate.
-    rms_px, residuals_px :
-        Misfit of each star's distance (``f·tan(angle) − a``), pixels: the support of the solution.
-    best : bool
-        The best supported solution (smallest rms); the list is sorted so it comes first.
-    ambiguous : bool
-        Another solution fits as well: distances alone cannot tell them apart.
-    degenerate : bool
-        The geometry leaves a direction (nearly) undetermined; do not trust this solution.
-    inconsistent : bool
-        The distances cannot all be met: the best fit still misses them by more than
-        :data:`INCONSISTENT_RMS_PX` (rms). The solution is the least-squares compromise of
-        distances that do not belong together (a wrong star, a wrong focal length).
-    condition : float
-        Reciprocal condition of the problem at the solution (1 ideal, 0 singular).
-    unit_covariance : ndarray or None
-        Covariance for 1 px of distance noise: boresight east and north (radians) and, when
-        estimated, the focal length (pixels). Scale by ``sigma_px**2``.
-    """
-
-    ra_deg: float
-    dec_deg: float
-    focal_px: float
-    rms_px: float
-    residuals_px: npt.NDArray[np.float64]
-    best: bool
-    ambiguous: bool
-    degenerate: bool
-    condition: float
-    converged: bool
-    iterations: int
-    unit_covariance: Optional[npt.NDArray[np.float64]]
-    inconsistent: bool = False
-    boresight_sigma_rad_per_px: float = math.inf
-
-    def boresight_sigma_arcsec(self, sigma_px: float) -> float:
-        """Predicted 1σ boresight error (arcsec) for ``sigma_px`` of noise on each distance
-        (the core's figure for 1 px, scaled; infinite when degenerate)."""
-        return float(sigma_px * self.boresight_sigma_rad_per_px * ARCSEC_PER_RAD)
+#: One solution of :func:`boresight_from_distances`: the core's result, read through typed
+#: properties (``best`` marks the best supported, which comes first).
+BoresightSolution = _starid.BoresightSolution
 
 
 #: A boresight solution whose distances are missed by more than this (rms, pixels) is flagged
@@ -159,57 +113,12 @@ def boresight_from_distances(
         except (TypeError, ValueError) as e:
             raise InvalidInputError(f"focal_range_px must be a pair (lo, hi), got {focal_range_px!r}") from e
         rng = (lo, hi)
-    raw = list(_starid.boresight_from_distances(rd, a, f, rng))
-    return [
-        BoresightSolution(
-            ra_deg=float(d["ra_deg"]),
-            dec_deg=float(d["dec_deg"]),
-            focal_px=float(d["focal_px"]),
-            rms_px=float(d["rms_px"]),
-            residuals_px=d["residuals_px"],
-            best=i == 0,
-            ambiguous=bool(d["ambiguous"]),
-            degenerate=bool(d["degenerate"]),
-            condition=float(d["condition"]),
-            converged=bool(d["converged"]),
-            iterations=int(d["iterations"]),
-            unit_covariance=d["unit_covariance"],
-            inconsistent=bool(d["inconsistent"]),
-            boresight_sigma_rad_per_px=float(d["boresight_sigma_rad_per_px"]),
-        )
-        for i, d in enumerate(raw)
-    ]
+    return _starid.boresight_from_distances(rd, a, f, rng)
 
 
-@dataclass(frozen=True)
-class PointingFit:
-    """Attitude and camera fitted to matched stars (:func:`fit_pointing`, :func:`refine`).
-
-    ``covariance`` is over ``parameters``: ``rot_x, rot_y, rot_z`` (small rotations about the
-    camera axes, radians), then as fitted ``focal_px``, ``cx_px``, ``cy_px``, ``k1``;
-    ``sigma_px`` is the centroid noise it assumes (given, or estimated from the residuals).
-    """
-
-    ra_deg: float
-    dec_deg: float
-    roll_deg: float
-    quaternion: npt.NDArray[np.float64]
-    rotation_matrix: npt.NDArray[np.float64]
-    focal_px: float
-    fov_deg: float
-    principal_point_px: tuple[float, float]
-    k1: float
-    parameters: list[str]
-    covariance: Optional[npt.NDArray[np.float64]]
-    boresight_sigma_arcsec: float
-    roll_sigma_arcsec: float
-    focal_sigma_px: float
-    sigma_px: float
-    residuals_px: npt.NDArray[np.float64]
-    rms_px: float
-    iterations: int
-    converged: bool
-    mirrored: bool
+#: Attitude and camera fitted to matched stars (:func:`fit_pointing`, :func:`refine`): the
+#: core's result, read through typed properties.
+PointingFit = _starid.PointingFit
 
 
 def _focal_guess(focal_px: Optional[float], fov_deg: Optional[float], width: float) -> Optional[float]:
@@ -258,35 +167,9 @@ def fit_pointing(
     f0 = _focal_guess(focal_px, fov_deg, w)
     if not fit_focal and f0 is None:
         raise InvalidInputError("with fit_focal=False the focal length must be given (focal_px or fov_deg)")
-    d = _starid.fit_pointing(
+    return _starid.fit_pointing(
         rd, a, w, h, f0, bool(fit_focal), bool(fit_principal_point), bool(fit_k1), bool(mirrored),
         None if sigma_px is None else float(sigma_px),
-    )
-    return _fit(d)
-
-
-def _fit(d: dict[str, Any]) -> PointingFit:
-    return PointingFit(
-        ra_deg=float(d["ra_deg"]),
-        dec_deg=float(d["dec_deg"]),
-        roll_deg=float(d["roll_deg"]),
-        quaternion=d["quaternion"],
-        rotation_matrix=d["rotation_matrix"],
-        focal_px=float(d["focal_px"]),
-        fov_deg=float(d["fov_deg"]),
-        principal_point_px=(float(d["principal_point_px"][0]), float(d["principal_point_px"][1])),
-        k1=float(d["k1"]),
-        parameters=list(d["parameters"]),
-        covariance=d["covariance"],
-        boresight_sigma_arcsec=float(d["boresight_sigma_arcsec"]),
-        roll_sigma_arcsec=float(d["roll_sigma_arcsec"]),
-        focal_sigma_px=float(d["focal_sigma_px"]),
-        sigma_px=float(d["sigma_px"]),
-        residuals_px=d["residuals_px"],
-        rms_px=float(d["rms_px"]),
-        iterations=int(d["iterations"]),
-        converged=bool(d["converged"]),
-        mirrored=bool(d["mirrored"]),
     )
 
 

@@ -656,6 +656,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(guide::guide_qtm_triangle_count, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::boresight_from_distances, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::fit_pointing, m)?)?;
+    m.add_class::<pointing::PyPointingFit>()?;
+    m.add_class::<pointing::PyBoresightSolution>()?;
     m.add_function(wrap_pyfunction!(
         pointing::predicted_distance_covariance,
         m

@@ -5,7 +5,7 @@ use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 
 use crate::errors::{InvalidInputError, PyStaridError};
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::PyDict;
 use starid_core::geometry::{radec_to_unit, unit_to_radec};
 use starid_core::pointing::{self, PointingFit, RefineOptions};
 use starid_core::{geometry, Camera, IdentifyConfig};
@@ -56,7 +56,7 @@ pub fn boresight_from_distances<'py>(
     distances_px: PyReadonlyArray1<'py, f64>,
     focal_px: Option<f64>,
     focal_range_px: Option<(f64, f64)>,
-) -> PyResult<Bound<'py, PyList>> {
+) -> PyResult<Vec<PyBoresightSolution>> {
     let stars = directions("radec_deg", &radec_deg)?;
     let a = convert::vector("distances_px", &distances_px, Some(stars.len()))?;
     if focal_px.is_some() && focal_range_px.is_some() {
@@ -68,78 +68,277 @@ pub fn boresight_from_distances<'py>(
         Some(range) => pointing::boresight_from_distances_in_range(&stars, &a, range),
         None => pointing::boresight_from_distances(&stars, &a, focal_px),
     })?;
-    let out = PyList::empty(py);
-    for s in &sols {
-        let d = PyDict::new(py);
-        let (ra, dec) = unit_to_radec(&s.boresight);
-        d.set_item("ra_deg", ra.to_degrees())?;
-        d.set_item("dec_deg", dec.to_degrees())?;
-        d.set_item("focal_px", s.focal_length_px)?;
-        d.set_item("rms_px", s.rms_px)?;
-        d.set_item("residuals_px", s.residuals_px.clone().into_pyarray(py))?;
-        d.set_item("iterations", s.iterations)?;
-        d.set_item("converged", s.converged)?;
-        d.set_item("ambiguous", s.ambiguous)?;
-        d.set_item("degenerate", s.degenerate)?;
-        d.set_item("condition", s.condition)?;
-        d.set_item("inconsistent", s.inconsistent)?;
-        d.set_item("boresight_sigma_rad_per_px", s.boresight_sigma_rad(1.0))?;
-        match &s.unit_covariance {
-            Some(c) => d.set_item("unit_covariance", matrix(py, c))?,
-            None => d.set_item("unit_covariance", py.None())?,
-        }
-        out.append(d)?;
-    }
-    Ok(out)
+    Ok(sols
+        .into_iter()
+        .enumerate()
+        .map(|(i, solution)| PyBoresightSolution {
+            solution,
+            best: i == 0,
+        })
+        .collect())
 }
 
-pub fn fit_dict<'py>(
-    py: Python<'py>,
-    fit: &PointingFit,
+/// One solution of ``starid.pointing.boresight_from_distances``; immutable.
+///
+/// Attributes
+/// ----------
+/// ra_deg, dec_deg : float
+///     The boresight.
+/// focal_px : float
+///     The focal length: the given one, or the estimate.
+/// rms_px, residuals_px :
+///     Misfit of each star's distance (``f·tan(angle) − a``), pixels: the support of the solution.
+/// best : bool
+///     The best supported solution (smallest rms); the list is sorted so it comes first.
+/// ambiguous : bool
+///     Another solution fits as well: distances alone cannot tell them apart.
+/// degenerate : bool
+///     The geometry leaves a direction (nearly) undetermined; do not trust this solution.
+/// inconsistent : bool
+///     The distances cannot all be met: the best fit still misses them by more than
+///     ``INCONSISTENT_RMS_PX`` (rms). The solution is the least-squares compromise of
+///     distances that do not belong together (a wrong star, a wrong focal length).
+/// condition : float
+///     Reciprocal condition of the problem at the solution (1 ideal, 0 singular).
+/// unit_covariance : ndarray or None
+///     Covariance for 1 px of distance noise: boresight east and north (radians) and, when
+///     estimated, the focal length (pixels). Scale by ``sigma_px**2``.
+#[pyclass(frozen, name = "BoresightSolution", module = "starid.pointing")]
+pub struct PyBoresightSolution {
+    solution: pointing::DistanceSolution,
+    best: bool,
+}
+
+#[pymethods]
+impl PyBoresightSolution {
+    #[getter]
+    fn ra_deg(&self) -> f64 {
+        unit_to_radec(&self.solution.boresight).0.to_degrees()
+    }
+    #[getter]
+    fn dec_deg(&self) -> f64 {
+        unit_to_radec(&self.solution.boresight).1.to_degrees()
+    }
+    #[getter]
+    fn focal_px(&self) -> f64 {
+        self.solution.focal_length_px
+    }
+    #[getter]
+    fn rms_px(&self) -> f64 {
+        self.solution.rms_px
+    }
+    #[getter]
+    fn residuals_px<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray1<f64>> {
+        self.solution.residuals_px.clone().into_pyarray(py)
+    }
+    #[getter]
+    fn best(&self) -> bool {
+        self.best
+    }
+    #[getter]
+    fn ambiguous(&self) -> bool {
+        self.solution.ambiguous
+    }
+    #[getter]
+    fn degenerate(&self) -> bool {
+        self.solution.degenerate
+    }
+    #[getter]
+    fn condition(&self) -> f64 {
+        self.solution.condition
+    }
+    #[getter]
+    fn converged(&self) -> bool {
+        self.solution.converged
+    }
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.solution.iterations
+    }
+    #[getter]
+    fn unit_covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, numpy::PyArray2<f64>>> {
+        self.solution
+            .unit_covariance
+            .as_ref()
+            .map(|c| matrix(py, c))
+    }
+    #[getter]
+    fn inconsistent(&self) -> bool {
+        self.solution.inconsistent
+    }
+    /// The core's 1σ boresight error for 1 px of noise on each distance, radians.
+    #[getter]
+    fn boresight_sigma_rad_per_px(&self) -> f64 {
+        self.solution.boresight_sigma_rad(1.0)
+    }
+    /// Predicted 1σ boresight error (arcsec) for ``sigma_px`` of noise on each distance
+    /// (infinite when degenerate).
+    fn boresight_sigma_arcsec(&self, sigma_px: f64) -> f64 {
+        self.solution.boresight_sigma_rad(sigma_px) * ARCSEC_PER_RAD
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "BoresightSolution(ra_deg={:.6}, dec_deg={:.6}, focal_px={:.3}, rms_px={:.4}, best={}, ambiguous={}, degenerate={})",
+            self.ra_deg(),
+            self.dec_deg(),
+            self.solution.focal_length_px,
+            self.solution.rms_px,
+            py_bool(self.best),
+            py_bool(self.solution.ambiguous),
+            py_bool(self.solution.degenerate)
+        )
+    }
+}
+
+/// A bool as Python writes it.
+fn py_bool(b: bool) -> &'static str {
+    if b {
+        "True"
+    } else {
+        "False"
+    }
+}
+
+/// Attitude and camera fitted to matched stars (``starid.pointing.fit_pointing``,
+/// ``starid.pointing.refine``); immutable.
+///
+/// ``covariance`` is over ``parameters``: ``rot_x, rot_y, rot_z`` (small rotations about the
+/// camera axes, radians), then as fitted ``focal_px``, ``cx_px``, ``cy_px``, ``k1``;
+/// ``sigma_px`` is the centroid noise it assumes (given, or estimated from the residuals).
+#[pyclass(frozen, name = "PointingFit", module = "starid.pointing")]
+pub struct PyPointingFit {
+    fit: PointingFit,
     width_px: f64,
     mirrored: bool,
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let (ra, dec, roll) = geometry::radec_roll_from_attitude(&fit.r_icrs_to_cam);
-    d.set_item("ra_deg", ra.to_degrees())?;
-    d.set_item("dec_deg", dec.to_degrees())?;
-    d.set_item("roll_deg", roll.to_degrees())?;
-    outcome::put_rotation(&d, &fit.r_icrs_to_cam)?;
-    d.set_item("focal_px", fit.camera.focal_length_px)?;
-    d.set_item(
-        "fov_deg",
-        (2.0 * (0.5 * width_px / fit.camera.focal_length_px).atan()).to_degrees(),
-    )?;
-    d.set_item(
-        "principal_point_px",
-        (
-            fit.camera.principal_point_px[0],
-            fit.camera.principal_point_px[1],
-        ),
-    )?;
-    d.set_item("k1", fit.camera.k1)?;
-    d.set_item("parameters", fit.parameters.clone())?;
-    match &fit.covariance {
-        Some(c) => d.set_item("covariance", matrix(py, c))?,
-        None => d.set_item("covariance", py.None())?,
+}
+
+const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+
+#[pymethods]
+impl PyPointingFit {
+    /// Right ascension of the boresight, degrees.
+    #[getter]
+    fn ra_deg(&self) -> f64 {
+        geometry::radec_roll_from_attitude(&self.fit.r_icrs_to_cam)
+            .0
+            .to_degrees()
     }
-    let arcsec = 180.0 / std::f64::consts::PI * 3600.0;
-    d.set_item("boresight_sigma_arcsec", fit.boresight_sigma_rad() * arcsec)?;
-    d.set_item("roll_sigma_arcsec", fit.roll_sigma_rad() * arcsec)?;
-    d.set_item("focal_sigma_px", fit.focal_sigma_px())?;
-    d.set_item("sigma_px", fit.sigma_px)?;
-    let flat: Vec<f64> = fit.residuals_px.iter().flat_map(|r| [r[0], r[1]]).collect();
-    d.set_item(
-        "residuals_px",
-        Array2::from_shape_vec((fit.residuals_px.len(), 2), flat)
-            .expect("shape")
-            .into_pyarray(py),
-    )?;
-    d.set_item("rms_px", fit.rms_px)?;
-    d.set_item("iterations", fit.iterations)?;
-    d.set_item("converged", fit.converged)?;
-    d.set_item("mirrored", mirrored)?;
-    Ok(d)
+    /// Declination of the boresight, degrees.
+    #[getter]
+    fn dec_deg(&self) -> f64 {
+        geometry::radec_roll_from_attitude(&self.fit.r_icrs_to_cam)
+            .1
+            .to_degrees()
+    }
+    /// Roll about the boresight, degrees.
+    #[getter]
+    fn roll_deg(&self) -> f64 {
+        geometry::radec_roll_from_attitude(&self.fit.r_icrs_to_cam)
+            .2
+            .to_degrees()
+    }
+    /// The attitude ICRS → camera as a unit quaternion ``[w, x, y, z]``.
+    #[getter]
+    fn quaternion<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray1<f64>> {
+        geometry::quaternion_wxyz(&self.fit.r_icrs_to_cam)
+            .to_vec()
+            .into_pyarray(py)
+    }
+    /// The attitude ICRS → camera as a 3 × 3 rotation matrix.
+    #[getter]
+    fn rotation_matrix<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        outcome::matrix3(&self.fit.r_icrs_to_cam).into_pyarray(py)
+    }
+    /// Focal length, pixels.
+    #[getter]
+    fn focal_px(&self) -> f64 {
+        self.fit.camera.focal_length_px
+    }
+    /// Field of view across the width, degrees.
+    #[getter]
+    fn fov_deg(&self) -> f64 {
+        (2.0 * (0.5 * self.width_px / self.fit.camera.focal_length_px).atan()).to_degrees()
+    }
+    /// Principal point ``(x, y)``, pixels.
+    #[getter]
+    fn principal_point_px(&self) -> (f64, f64) {
+        let [x, y] = self.fit.camera.principal_point_px;
+        (x, y)
+    }
+    /// Radial distortion coefficient.
+    #[getter]
+    fn k1(&self) -> f64 {
+        self.fit.camera.k1
+    }
+    /// The fitted parameters' names, in ``covariance`` order.
+    #[getter]
+    fn parameters(&self) -> Vec<&'static str> {
+        self.fit.parameters.clone()
+    }
+    /// Covariance of ``parameters`` (None where the fit does not determine them).
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, numpy::PyArray2<f64>>> {
+        self.fit.covariance.as_ref().map(|c| matrix(py, c))
+    }
+    /// 1σ error of the boresight, arcseconds.
+    #[getter]
+    fn boresight_sigma_arcsec(&self) -> f64 {
+        self.fit.boresight_sigma_rad() * ARCSEC_PER_RAD
+    }
+    /// 1σ error of the roll, arcseconds.
+    #[getter]
+    fn roll_sigma_arcsec(&self) -> f64 {
+        self.fit.roll_sigma_rad() * ARCSEC_PER_RAD
+    }
+    /// 1σ error of the focal length, pixels.
+    #[getter]
+    fn focal_sigma_px(&self) -> f64 {
+        self.fit.focal_sigma_px()
+    }
+    /// The centroid noise the covariance assumes, pixels.
+    #[getter]
+    fn sigma_px(&self) -> f64 {
+        self.fit.sigma_px
+    }
+    /// Residuals (observed − model) per star, pixels, shape (N, 2).
+    #[getter]
+    fn residuals_px<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        let r = &self.fit.residuals_px;
+        Array2::from_shape_fn((r.len(), 2), |(i, k)| r[i][k]).into_pyarray(py)
+    }
+    /// Root mean square residual per axis, pixels.
+    #[getter]
+    fn rms_px(&self) -> f64 {
+        self.fit.rms_px
+    }
+    /// Iterations taken.
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.fit.iterations
+    }
+    /// Whether the iteration converged.
+    #[getter]
+    fn converged(&self) -> bool {
+        self.fit.converged
+    }
+    /// Whether the image was fitted x-reversed.
+    #[getter]
+    fn mirrored(&self) -> bool {
+        self.mirrored
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "PointingFit(ra_deg={:.6}, dec_deg={:.6}, roll_deg={:.6}, fov_deg={:.6}, rms_px={:.4}, converged={})",
+            self.ra_deg(),
+            self.dec_deg(),
+            self.roll_deg(),
+            self.fov_deg(),
+            self.fit.rms_px,
+            py_bool(self.fit.converged)
+        )
+    }
 }
 
 /// Attitude and camera from matched stars (RA/Dec and pixel positions), by Levenberg–Marquardt.
@@ -158,7 +357,7 @@ pub fn fit_pointing<'py>(
     fit_k1: bool,
     mirrored: bool,
     sigma_px: Option<f64>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyPointingFit> {
     let stars = directions("radec_deg", &radec_deg)?;
     let xy = convert::centroids("xy", &xy)?;
     let options = RefineOptions {
@@ -172,7 +371,11 @@ pub fn fit_pointing<'py>(
     let fit = run_core(py, move || {
         pointing::fit_pointing(&stars, &xy, width_px, height_px, focal_px, &options)
     })?;
-    fit_dict(py, &fit, width_px, mirrored)
+    Ok(PyPointingFit {
+        fit,
+        width_px,
+        mirrored,
+    })
 }
 
 /// Predicted covariance of the distance solution for image offsets from the principal point.

@@ -22,7 +22,7 @@ pub use columns::{frame, result_columns};
 use state::State;
 
 /// A rotation's 3×3 matrix as an ndarray.
-fn matrix3(r: &Rotation3<f64>) -> Array2<f64> {
+pub(crate) fn matrix3(r: &Rotation3<f64>) -> Array2<f64> {
     let m = r.matrix();
     Array2::from_shape_fn((3, 3), |(i, j)| m[(i, j)])
 }
