@@ -369,13 +369,15 @@ impl Solver {
     /// The frame searched with the camera as given at the focal lengths of a grid about it,
     /// nearest first: steps that move a star at the half diagonal by `2 SCALE_GRID_EDGE_PX`,
     /// within the tolerance, at most [`SCALE_GRID_STEPS`] of them, each with a small budget
-    /// ([`SCALE_GRID_PAIRS`] a spot beyond the five a solution needs, six from positions alone, at most
-    /// [`SCALE_GRID_MAX_PAIRS`]). The search over the range finds a focal length from triangles
-    /// of the brightest spots and fails where those are half false; the fixed-focal search
-    /// absorbs a scale error of a pixel or so at the edge and finds stars among false spots.
+    /// ([`SCALE_GRID_PAIRS`] a spot beyond the five a solution needs, six from positions
+    /// alone, at most [`SCALE_GRID_MAX_PAIRS`]). The search over the range finds a focal
+    /// length from triangles of the brightest spots and fails where those are half false; the
+    /// fixed-focal search absorbs a scale error of a pixel or so at the edge and finds stars
+    /// among false spots.
     /// Each solution's false-match bound is multiplied by the number of focal lengths in its
-    /// half of the grid, and by two (a union bound over each half, see [`SCALE_GRID_NEAR`]); `before` is the search over the range, whose work the
-    /// result adds to. The frame's time limit, counted from `start`, holds for the whole grid.
+    /// half of the grid, and by two (a union bound over each half, see [`SCALE_GRID_NEAR`]);
+    /// `before` is the search over the range, whose work the result adds to. The frame's time
+    /// limit, counted from `start`, holds for the whole grid.
     fn search_scale_grid(
         &self,
         call: Call<'_>,
