@@ -373,6 +373,20 @@ def test_extraction_defaults_are_the_cores_and_its_checks_name_the_setting() -> 
             starid.extract_centroids(img, **{name: bad})
 
 
+def test_rendering_defaults_are_the_cores() -> None:
+    d = starid.images.RENDER_DEFAULTS
+    assert d["bits"] == 16 and d["psf_sigma_px"] > 0 and d["clip_background"] is False
+    plain, truth = starid.simulate_image(fov_deg=12.0, image_size=(160, 120), seed=3)
+    stated, _ = starid.simulate_image(fov_deg=12.0, image_size=(160, 120), seed=3, **d)
+    assert plain.dtype == np.uint16 and np.array_equal(plain, stated) and len(truth.xy) > 0
+    # A setting given replaces its default: a wider PSF spreads the same light.
+    wider, _ = starid.simulate_image(fov_deg=12.0, image_size=(160, 120), seed=3, psf_sigma_px=2.0 * d["psf_sigma_px"])
+    assert not np.array_equal(plain, wider)
+    eight, _ = starid.simulate_image(fov_deg=12.0, image_size=(160, 120), seed=3, bits=8)
+    assert eight.dtype == np.uint8
+    assert f"psf_sigma_px={d['psf_sigma_px']!r}" in (starid.simulate_image.__doc__ or "")
+
+
 def test_the_index_loads_while_the_image_is_read(tmp_path: Path) -> None:
     from PIL import Image
 

@@ -201,17 +201,20 @@ def identify_image(
 #: The extraction settings' defaults, as the core writes them (name → value).
 EXTRACT_DEFAULTS: dict[str, Any] = dict(_starid.extract_defaults())
 
+#: The image simulator's rendering defaults, as the core writes them (name → value).
+RENDER_DEFAULTS: dict[str, Any] = dict(_starid.render_defaults())
 
-def _with_defaults(doc: Optional[str]) -> Optional[str]:
+
+def _with_defaults(doc: Optional[str], defaults: dict[str, Any]) -> Optional[str]:
     """``doc`` with the defaults listed before its examples."""
     if doc is None:
         return None
-    listed = "\n    Defaults: " + ", ".join(f"``{k}={v!r}``" for k, v in EXTRACT_DEFAULTS.items()) + ".\n"
+    listed = "\n    Defaults: " + ", ".join(f"``{k}={v!r}``" for k, v in defaults.items()) + ".\n"
     at = doc.find("\n    >>>")
     return doc + listed if at < 0 else doc[:at] + listed + doc[at:]
 
 
-extract_centroids.__doc__ = _with_defaults(extract_centroids.__doc__)
+extract_centroids.__doc__ = _with_defaults(extract_centroids.__doc__, EXTRACT_DEFAULTS)
 
 
 def _maybe(convert: Any, value: Any) -> Any:
@@ -277,19 +280,19 @@ def simulate_image(
     seed: int = 0,
     mag_limit: Optional[float] = 6.0,
     false_stars: int = 0,
-    psf_sigma_px: float = 1.2,
-    zero_point_e: float = 2.0e6,
-    background_e: float = 200.0,
-    gradient_e: float = 0.0,
-    read_noise_e: float = 5.0,
-    hot_pixels: int = 0,
-    hot_pixel_e: float = 5000.0,
+    psf_sigma_px: Optional[float] = None,
+    zero_point_e: Optional[float] = None,
+    background_e: Optional[float] = None,
+    gradient_e: Optional[float] = None,
+    read_noise_e: Optional[float] = None,
+    hot_pixels: Optional[int] = None,
+    hot_pixel_e: Optional[float] = None,
     trail: Optional[tuple[float, float, float, float, float]] = None,
-    full_well_e: float = 60000.0,
-    gain_e_per_dn: float = 1.0,
-    bits: int = 16,
-    clip_background: bool = False,
-    foreground: float = 0.0,
+    full_well_e: Optional[float] = None,
+    gain_e_per_dn: Optional[float] = None,
+    bits: Optional[int] = None,
+    clip_background: Optional[bool] = None,
+    foreground: Optional[float] = None,
 ) -> tuple[npt.NDArray[Any], Frame]:
     """A simulated frame rendered to pixels, with its truth: pixel-integrated Gaussian PSFs
     (``psf_sigma_px``), a star of magnitude 0 giving ``zero_point_e`` electrons, sky
@@ -300,7 +303,8 @@ def simulate_image(
     reads 0, as in frames whose pipeline removed the background. ``foreground`` (a share of the
     width, below 1) covers the right of the frame with a lit, textured foreground, its edge
     ragged, as branches or a roof against a town-lit sky: the stars behind it are hidden and
-    its texture makes spots that are not stars.
+    its texture makes spots that are not stars. A rendering setting left None takes the core's
+    default (:data:`RENDER_DEFAULTS`, listed below).
 
     The image holds the digital numbers a sensor gives: uint16 for 16 bits, uint8 for 8, so
     that Pillow or astropy save it as it is (``PIL.Image.fromarray(img).save("frame.png")``
@@ -312,13 +316,20 @@ def simulate_image(
     img, d = _starid.simulate_image(
         cat._native, cam, _whole("seed", seed, 2**64 - 1), None if mag_limit is None else float(mag_limit),
         _whole("false_stars", false_stars),
-        float(psf_sigma_px), float(zero_point_e), float(background_e), float(gradient_e), float(read_noise_e),
-        _whole("hot_pixels", hot_pixels), float(hot_pixel_e), tr, float(full_well_e), float(gain_e_per_dn),
-        _whole("bits", bits, 64), _flag("clip_background", clip_background),
-        float(foreground),
+        _maybe(float, psf_sigma_px), _maybe(float, zero_point_e), _maybe(float, background_e),
+        _maybe(float, gradient_e), _maybe(float, read_noise_e),
+        None if hot_pixels is None else _whole("hot_pixels", hot_pixels), _maybe(float, hot_pixel_e), tr,
+        _maybe(float, full_well_e), _maybe(float, gain_e_per_dn),
+        None if bits is None else _whole("bits", bits, 64),
+        None if clip_background is None else _flag("clip_background", clip_background),
+        _maybe(float, foreground),
     )
     w, h = cam.image_size
     frame: Frame = _frame(d, cam.fov_deg, (w, h), seed)
     # The renderer's values are whole numbers within the bit depth: the integer type is exact.
-    return img.astype(np.uint8 if int(bits) == 8 else np.uint16), frame
+    depth = RENDER_DEFAULTS["bits"] if bits is None else int(bits)
+    return img.astype(np.uint8 if depth == 8 else np.uint16), frame
+
+
+simulate_image.__doc__ = _with_defaults(simulate_image.__doc__, RENDER_DEFAULTS)
 

@@ -199,12 +199,33 @@ pub fn extract_centroids<'py>(
     Ok(d)
 }
 
-/// Simulate a frame and render it to pixels: `(image (H, W) float32, frame dict)`.
+/// The rendering settings' defaults, the core's [`RenderConfig::default`]: name → value.
 #[pyfunction]
-#[pyo3(signature = (catalog, camera, seed, mag_limit=None, false_stars=0, psf_sigma_px=1.2,
-                    zero_point_e=2.0e6, background_e=200.0, gradient_e=0.0, read_noise_e=5.0,
-                    hot_pixels=0, hot_pixel_e=5000.0, trail=None, full_well_e=60000.0,
-                    gain_e_per_dn=1.0, bits=16, clip_background=false, foreground=0.0))]
+pub fn render_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = RenderConfig::default();
+    let out = PyDict::new(py);
+    out.set_item("psf_sigma_px", d.psf_sigma_px)?;
+    out.set_item("zero_point_e", d.zero_point_e)?;
+    out.set_item("background_e", d.background_e)?;
+    out.set_item("gradient_e", d.gradient_e)?;
+    out.set_item("read_noise_e", d.read_noise_e)?;
+    out.set_item("hot_pixels", d.hot_pixels)?;
+    out.set_item("hot_pixel_e", d.hot_pixel_e)?;
+    out.set_item("full_well_e", d.full_well_e)?;
+    out.set_item("gain_e_per_dn", d.gain_e_per_dn)?;
+    out.set_item("bits", d.bits)?;
+    out.set_item("clip_background", d.clip_background)?;
+    out.set_item("foreground", d.foreground)?;
+    Ok(out)
+}
+
+/// Simulate a frame and render it to pixels: `(image (H, W) float32, frame dict)`. A rendering
+/// setting left None takes the core's default ([`RenderConfig::default`]).
+#[pyfunction]
+#[pyo3(signature = (catalog, camera, seed, mag_limit=None, false_stars=0, psf_sigma_px=None,
+                    zero_point_e=None, background_e=None, gradient_e=None, read_noise_e=None,
+                    hot_pixels=None, hot_pixel_e=None, trail=None, full_well_e=None,
+                    gain_e_per_dn=None, bits=None, clip_background=None, foreground=None))]
 pub fn simulate_image<'py>(
     py: Python<'py>,
     catalog: &Bound<'py, PyCatalog>,
@@ -212,22 +233,38 @@ pub fn simulate_image<'py>(
     seed: u64,
     mag_limit: Option<f64>,
     false_stars: usize,
-    psf_sigma_px: f64,
-    zero_point_e: f64,
-    background_e: f64,
-    gradient_e: f64,
-    read_noise_e: f64,
-    hot_pixels: usize,
-    hot_pixel_e: f64,
+    psf_sigma_px: Option<f64>,
+    zero_point_e: Option<f64>,
+    background_e: Option<f64>,
+    gradient_e: Option<f64>,
+    read_noise_e: Option<f64>,
+    hot_pixels: Option<usize>,
+    hot_pixel_e: Option<f64>,
     trail: Option<([f64; 4], f64)>,
-    full_well_e: f64,
-    gain_e_per_dn: f64,
-    bits: u32,
-    clip_background: bool,
-    foreground: f64,
+    full_well_e: Option<f64>,
+    gain_e_per_dn: Option<f64>,
+    bits: Option<u32>,
+    clip_background: Option<bool>,
+    foreground: Option<f64>,
 ) -> PyResult<(Bound<'py, numpy::PyArray2<f32>>, Bound<'py, PyDict>)> {
     let cam = camera.get().inner;
-    if hot_pixels > 1_000_000 || false_stars > 100_000 {
+    let d = RenderConfig::default();
+    let rc = RenderConfig {
+        psf_sigma_px: psf_sigma_px.unwrap_or(d.psf_sigma_px),
+        zero_point_e: zero_point_e.unwrap_or(d.zero_point_e),
+        background_e: background_e.unwrap_or(d.background_e),
+        gradient_e: gradient_e.unwrap_or(d.gradient_e),
+        read_noise_e: read_noise_e.unwrap_or(d.read_noise_e),
+        hot_pixels: hot_pixels.unwrap_or(d.hot_pixels),
+        hot_pixel_e: hot_pixel_e.unwrap_or(d.hot_pixel_e),
+        trail,
+        full_well_e: full_well_e.unwrap_or(d.full_well_e),
+        gain_e_per_dn: gain_e_per_dn.unwrap_or(d.gain_e_per_dn),
+        bits: bits.unwrap_or(d.bits),
+        clip_background: clip_background.unwrap_or(d.clip_background),
+        foreground: foreground.unwrap_or(d.foreground),
+    };
+    if rc.hot_pixels > 1_000_000 || false_stars > 100_000 {
         return Err(InvalidInputError::new_err(
             "hot_pixels at most 1000000 and false_stars at most 100000",
         ));
@@ -237,21 +274,6 @@ pub fn simulate_image<'py>(
         false_stars,
         false_star_mags: FalseStarMags::FromCatalog,
         ..Default::default()
-    };
-    let rc = RenderConfig {
-        psf_sigma_px,
-        zero_point_e,
-        background_e,
-        gradient_e,
-        read_noise_e,
-        hot_pixels,
-        hot_pixel_e,
-        trail,
-        full_well_e,
-        gain_e_per_dn,
-        bits,
-        clip_background,
-        foreground,
     };
     let cat = catalog.get().inner.clone();
     let (frame, img) = run_core(py, move || {

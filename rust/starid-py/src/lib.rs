@@ -640,6 +640,7 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(images::luminance, m)?)?;
     m.add_function(wrap_pyfunction!(images::read_png, m)?)?;
     m.add_function(wrap_pyfunction!(images::simulate_image, m)?)?;
+    m.add_function(wrap_pyfunction!(images::render_defaults, m)?)?;
     m.add_class::<PyIdentifyConfig>()?;
     m.add_class::<PyIdentification>()?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
