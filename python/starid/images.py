@@ -32,7 +32,7 @@ from ._unknown_field import identify_rough_field
 from .plot import annotate
 from .wcs import wcs, wcs_header
 
-__all__ = ["EXTRACT_DEFAULTS", "FLAGS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
+__all__ = ["EXTRACT_DEFAULTS", "FLAGS", "RENDER_DEFAULTS", "Centroids", "ImageIdentification", "extract_centroids", "identify_image", "read_image", "simulate_image"]
 
 
 
@@ -314,14 +314,14 @@ def simulate_image(
     cat = resolve_catalog_for(catalog, cam)
     tr = None if trail is None else ((float(trail[0]), float(trail[1]), float(trail[2]), float(trail[3])), float(trail[4]))
     img, d = _starid.simulate_image(
-        cat._native, cam, _whole("seed", seed, 2**64 - 1), None if mag_limit is None else float(mag_limit),
+        cat._native, cam, _whole("seed", seed, 2**64 - 1), _maybe(float, mag_limit),
         _whole("false_stars", false_stars),
         _maybe(float, psf_sigma_px), _maybe(float, zero_point_e), _maybe(float, background_e),
         _maybe(float, gradient_e), _maybe(float, read_noise_e),
-        None if hot_pixels is None else _whole("hot_pixels", hot_pixels), _maybe(float, hot_pixel_e), tr,
+        _maybe(lambda v: _whole("hot_pixels", v), hot_pixels), _maybe(float, hot_pixel_e), tr,
         _maybe(float, full_well_e), _maybe(float, gain_e_per_dn),
-        None if bits is None else _whole("bits", bits, 64),
-        None if clip_background is None else _flag("clip_background", clip_background),
+        _maybe(lambda v: _whole("bits", v, 64), bits),
+        _maybe(lambda v: _flag("clip_background", v), clip_background),
         _maybe(float, foreground),
     )
     w, h = cam.image_size

@@ -11,6 +11,7 @@ use starid_core::pointing::{self, PointingFit, RefineOptions};
 use starid_core::{geometry, Camera, IdentifyConfig};
 
 use crate::catalog::PyCatalog;
+use crate::outcome::py_bool;
 use crate::outcome::PyIdentification;
 use crate::{convert, outcome, run_core, PyIdentifyConfig};
 
@@ -188,15 +189,6 @@ impl PyBoresightSolution {
             py_bool(self.solution.ambiguous),
             py_bool(self.solution.degenerate)
         )
-    }
-}
-
-/// A bool as Python writes it.
-fn py_bool(b: bool) -> &'static str {
-    if b {
-        "True"
-    } else {
-        "False"
     }
 }
 

@@ -27,6 +27,15 @@ pub(crate) fn matrix3(r: &Rotation3<f64>) -> Array2<f64> {
     Array2::from_shape_fn((3, 3), |(i, j)| m[(i, j)])
 }
 
+/// A bool as Python writes it (for `__repr__`).
+pub(crate) fn py_bool(b: bool) -> &'static str {
+    if b {
+        "True"
+    } else {
+        "False"
+    }
+}
+
 /// `rotation_matrix` (3×3) and `quaternion` (`[w, x, y, z]`, w ≥ 0) of a rotation.
 pub fn put_rotation(d: &Bound<'_, PyDict>, r: &Rotation3<f64>) -> PyResult<()> {
     let py = d.py();
@@ -708,7 +717,7 @@ impl PyIdentification {
             "Identification(ok=True, {}/{n} stars identified, ra={ra:.5} deg, dec={dec:+.5} deg, roll={roll:.4} deg, \
              mirrored={}, {fov}rms residual {rms:.2} arcsec, P(false match) <= {:.1e}, time {:.3} ms)",
             self.n_matched,
-            if self.mirrored { "True" } else { "False" },
+            py_bool(self.mirrored),
             self.false_match_probability,
             self.time_s * 1e3
         )
