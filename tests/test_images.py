@@ -70,6 +70,26 @@ def test_dark_frame_and_clipped_background() -> None:
     assert len(starid.extract_centroids(clipped, dark=dark)) == 1
 
 
+def test_a_flat_frame_is_divided_out_and_a_bad_one_refused() -> None:
+    # Vignetting: the flat falls to 40 % at the corners; the image as recorded is the scene
+    # times the flat (normalised to its median) plus a dark. Calibrated, the spots are the
+    # scene's, in place and in brightness.
+    img, _ = starid.simulate_image(image_size=(320, 240), fov_deg=8.0, seed=1)
+    yy, xx = np.mgrid[0:240, 0:320]
+    flat = (1.0 - 0.6 * ((xx - 160.0) ** 2 + (yy - 120.0) ** 2) / (160.0**2 + 120.0**2)).astype(np.float32)
+    dark = np.random.default_rng(4).normal(300.0, 20.0, img.shape).astype(np.float32)
+    recorded = img.astype(np.float32) * (flat / np.median(flat)) + dark
+    clean = starid.extract_centroids(img)
+    calibrated = starid.extract_centroids(recorded, dark=dark, flat=5.0 * flat)
+    assert len(calibrated) == len(clean) > 0
+    assert calibrated.xy == pytest.approx(clean.xy, abs=1e-3)
+    assert calibrated.magnitudes == pytest.approx(clean.magnitudes, abs=1e-3)
+    with pytest.raises(starid.InvalidInputError, match="positive median"):
+        starid.extract_centroids(img, flat=np.zeros(img.shape, np.float32))
+    with pytest.raises(starid.InvalidInputError, match="flat has shape"):
+        starid.extract_centroids(img, flat=flat[:, :-1])
+
+
 def test_heavy_tailed_noise_does_not_flood_the_spots(bundled: starid.Catalog) -> None:
     # Pixel noise with heavy tails (Student's t, 3 degrees of freedom: many more 5-sigma
     # pixels than a Gaussian), as real sensors give: single-pixel peaks sink in the matched

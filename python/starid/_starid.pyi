@@ -653,6 +653,8 @@ def luminance(image: npt.NDArray[Any]) -> npt.NDArray[np.float32]: ...
 def read_png(path: Union[str, PathLike[str]], max_pixels: int) -> npt.NDArray[Any]: ...
 def extract_centroids(
     image: npt.NDArray[Any],
+    dark: Optional[npt.NDArray[np.float32]] = None,
+    flat: Optional[npt.NDArray[np.float32]] = None,
     threshold_sigma: Optional[float] = None,
     background_block: Optional[int] = None,
     min_pixels: Optional[int] = None,

@@ -66,6 +66,11 @@ class ImageIdentification:
         return annotate(image, self, path, catalog=catalog, dpi=dpi)
 
 
+def _calibration_frame(frame: Optional[Union[npt.ArrayLike, PathLike]]) -> Optional[npt.NDArray[np.float32]]:
+    """A dark or flat frame (array or file) as the core reads it: float32, C order."""
+    return None if frame is None else np.ascontiguousarray(_load(frame), dtype=np.float32)
+
+
 def extract_centroids(
     image: Union[npt.ArrayLike, PathLike],
     *,
@@ -109,27 +114,10 @@ def extract_centroids(
     img = _load(image)
     read_s = time.perf_counter() - t0 if isinstance(image, (str, os.PathLike)) else 0.0
     t1 = time.perf_counter()
-    if dark is not None:
-        dk = _load(dark)
-        if dk.shape != img.shape:
-            raise InvalidInputError(f"dark has shape {dk.shape}, the image {img.shape}")
-        img = np.asarray(img.astype(np.float32) - dk, dtype=np.float32)
-    if flat is not None:
-        fl = _load(flat)
-        if fl.shape != img.shape:
-            raise InvalidInputError(f"flat has shape {fl.shape}, the image {img.shape}")
-        ok = np.isfinite(fl)
-        med = float(np.median(fl[ok])) if ok.any() else 0.0
-        if not med > 0:
-            raise InvalidInputError("flat must have a positive median")
-        with np.errstate(divide="ignore", invalid="ignore"):
-            img = np.asarray(img / np.where(fl > 0, fl / med, np.nan), dtype=np.float32)
-    if img.dtype == np.float32:
-        finite = np.isfinite(img)
-        if not finite.all():
-            img = np.where(finite, img, np.float32(np.median(img[finite]))).astype(np.float32)
     raw: dict[str, Any] = _starid.extract_centroids(
         img,
+        _calibration_frame(dark),
+        _calibration_frame(flat),
         _maybe(float, threshold_sigma),
         _maybe(lambda v: _whole("background_block", v), background_block),
         _maybe(lambda v: _whole("min_pixels", v), min_pixels),
@@ -141,13 +129,10 @@ def extract_centroids(
         _maybe(lambda v: _flag("deblend", v), deblend),
         _maybe(float, filter_sigma_px),
     )
-    flux = np.asarray(raw["flux"], dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mags = np.where(flux > 0, -2.5 * np.log10(np.where(flux > 0, flux, 1.0)), np.inf)
     return Centroids(
         xy=raw["xy"],
-        flux=flux,
-        magnitudes=mags,
+        flux=raw["flux"],
+        magnitudes=raw["magnitudes"],
         peak=raw["peak"],
         pixels=raw["pixels"],
         elongation=raw["elongation"],

@@ -22,22 +22,58 @@ fn column<'py, T: numpy::Element>(
     spots.iter().map(f).collect::<Vec<T>>().into_pyarray(py)
 }
 
-/// Extraction over a borrowed numpy image of pixel type `T` (read in place when C-contiguous).
+/// Extraction over a borrowed numpy image of pixel type `T` (read in place when C-contiguous
+/// and no calibration is due), less `dark` and over `flat` where given.
 fn extract_array<T: starid_core::extract::Pixel + numpy::Element>(
     py: Python<'_>,
     image: &PyReadonlyArray2<'_, T>,
+    dark: Option<&[f32]>,
+    flat: Option<&[f32]>,
     cfg: &ExtractConfig,
 ) -> PyResult<starid_core::extract::Extraction> {
     let view = image.as_array();
     let (h, w) = (view.nrows(), view.ncols());
     // Read in place only in C order (a column-major array's flat data runs down the columns).
-    match image.as_slice().ok().filter(|_| image.is_c_contiguous()) {
-        Some(pixels) => run_core(py, || extract(pixels, w, h, cfg)),
+    let copy: Vec<T>;
+    let pixels: &[T] = match image.as_slice().ok().filter(|_| image.is_c_contiguous()) {
+        Some(pixels) => pixels,
         None => {
-            let pixels: Vec<T> = view.iter().copied().collect();
-            run_core(py, move || extract(&pixels, w, h, cfg))
+            copy = view.iter().copied().collect();
+            &copy
         }
+    };
+    run_core(py, || {
+        match starid_core::extract::apply_calibration(pixels, dark, flat)? {
+            Some(calibrated) => extract(&calibrated, w, h, cfg),
+            None => extract(pixels, w, h, cfg),
+        }
+    })
+}
+
+/// A dark or flat frame's values in row-major order, refused unless it has the image's shape.
+fn calibration_frame(
+    name: &str,
+    frame: Option<&PyReadonlyArray2<'_, f32>>,
+    image: &Bound<'_, PyAny>,
+) -> PyResult<Option<Vec<f32>>> {
+    let Some(frame) = frame else {
+        return Ok(None);
+    };
+    let shape: Vec<usize> = image.getattr("shape")?.extract()?;
+    if frame.shape() != shape.as_slice() {
+        let dims = |s: &[usize]| {
+            s.iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        return Err(InvalidInputError::new_err(format!(
+            "{name} has shape ({}), the image ({})",
+            dims(frame.shape()),
+            dims(&shape)
+        )));
     }
+    Ok(Some(frame.as_array().iter().copied().collect()))
 }
 
 /// The luminance of a colour image (H, W, 3 or 4) of pixel type `T`, as float32 (H, W).
@@ -131,17 +167,20 @@ pub fn luminance<'py>(
     }
 }
 
-/// The spots of a 2-D image (uint8, uint16 or float32, row-major): dict of arrays, brightest
-/// first. A setting left None takes the core's default ([`ExtractConfig::default`], listed by
-/// [`extract_defaults`]).
+/// The spots of a 2-D image (uint8, uint16 or float32, row-major), less `dark` and over `flat`
+/// (float32 frames of its shape) where given ([`starid_core::extract::apply_calibration`]):
+/// dict of arrays, brightest first, with their instrumental magnitudes. A setting left None
+/// takes the core's default ([`ExtractConfig::default`], listed by [`extract_defaults`]).
 #[pyfunction]
-#[pyo3(signature = (image, threshold_sigma=None, background_block=None, min_pixels=None,
+#[pyo3(signature = (image, dark=None, flat=None, threshold_sigma=None, background_block=None, min_pixels=None,
                     max_spots=None, saturation=None, max_elongation=None, drop_flagged=None,
                     hot_pixel_ratio=None, deblend=None, filter_sigma_px=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract_centroids<'py>(
     py: Python<'py>,
     image: &Bound<'py, PyAny>,
+    dark: Option<PyReadonlyArray2<'py, f32>>,
+    flat: Option<PyReadonlyArray2<'py, f32>>,
     threshold_sigma: Option<f64>,
     background_block: Option<usize>,
     min_pixels: Option<usize>,
@@ -166,12 +205,15 @@ pub fn extract_centroids<'py>(
         deblend: deblend.unwrap_or(d.deblend),
         filter_sigma_px: filter_sigma_px.unwrap_or(d.filter_sigma_px),
     };
+    let dark = calibration_frame("dark", dark.as_ref(), image)?;
+    let flat = calibration_frame("flat", flat.as_ref(), image)?;
+    let (dark, flat) = (dark.as_deref(), flat.as_deref());
     let ex = if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u16>>() {
-        extract_array(py, &a, &cfg)?
+        extract_array(py, &a, dark, flat, &cfg)?
     } else if let Ok(a) = image.extract::<PyReadonlyArray2<'py, u8>>() {
-        extract_array(py, &a, &cfg)?
+        extract_array(py, &a, dark, flat, &cfg)?
     } else if let Ok(a) = image.extract::<PyReadonlyArray2<'py, f32>>() {
-        extract_array(py, &a, &cfg)?
+        extract_array(py, &a, dark, flat, &cfg)?
     } else {
         return Err(InvalidInputError::new_err(
             "image must be a 2-D array of uint8, uint16 or float32",
@@ -188,6 +230,10 @@ pub fn extract_centroids<'py>(
     )?;
     let spots = &ex.spots;
     d.set_item("flux", column(py, spots, |s| s.flux))?;
+    d.set_item(
+        "magnitudes",
+        column(py, spots, starid_core::extract::Spot::magnitude),
+    )?;
     d.set_item("peak", column(py, spots, |s| s.peak))?;
     d.set_item("pixels", column(py, spots, |s| i64::from(s.pixels)))?;
     d.set_item("elongation", column(py, spots, |s| s.elongation))?;
