@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from hypothesis import strategies as st
 
 import starid
 import starid.pointing as sp
+import starid._unknown_field as unknown_field
 from starid._unknown_field import stages
 from starid.cli import main
 
@@ -191,6 +193,48 @@ def test_the_stages_of_an_unknown_field() -> None:
     own = starid.Catalog.default()
     plan = stages(own, None, size)
     assert all(load() is own for _, _, load, _, _ in plan) and len(plan) == 4
+
+
+def test_the_full_stage_beside_the_quick_ones_gives_what_they_give_in_turn(monkeypatch: pytest.MonkeyPatch) -> None:
+    # One frame the quick stages identify, one only the full stage does (ten false spots,
+    # their magnitudes among the stars'), one nothing does: the full stage begun on a thread
+    # of its own as soon as the first stage fails gives each the result of the stages in turn.
+    deep = starid.Catalog.deep(9.0)
+    frames = [
+        starid.simulate(deep, 15.0, (1024, 768), seed=seed, mag_limit=6.8, noise_px=0.3, mag_noise=0.2, false_stars=fs)
+        for seed, fs in [(1, 0), (5, 10)]
+    ]
+    noise = np.random.default_rng(3).uniform(0, 1024, (30, 2)) * [1.0, 0.75]
+    spots = [(f.xy, f.magnitudes + 3.0) for f in frames] + [(noise, np.linspace(2.0, 7.0, 30))]
+    started = []
+    start = unknown_field._starid.identify_unknown_fov_start
+
+    def spy(*args: object) -> object:
+        started.append(args)
+        return start(*args)
+
+    monkeypatch.setattr(unknown_field._starid, "identify_unknown_fov_start", spy)
+    runs = {}
+    for cores in (1, 2):
+        monkeypatch.setattr(unknown_field, "_cores", lambda threads, n=cores: n)
+        runs[cores] = [starid.identify(xy, image_size=(1024, 768), magnitudes=m, mag_offset=None) for xy, m in spots]
+    assert len(started) == 2  # (the first frame's first stage finds it: nothing is begun for it)
+    assert [r.status for r in runs[2]] == [r.status for r in runs[1]] == ["identified", "identified", "search_limit"]
+    for one, two, f in zip(runs[1], runs[2], frames):
+        assert np.array_equal(one.ids, two.ids) and one.fov_deg == two.fov_deg
+        named = two.ids >= 0
+        assert np.array_equal(two.ids[named], f.true_ids[named])
+
+
+def test_a_search_begun_beside_stops_when_told() -> None:
+    spots = np.random.default_rng(5).uniform(0, 512, (20_000, 2))
+    cat = starid.Catalog.default()
+    search = starid._starid.identify_unknown_fov_start(cat._native, spots, None, 512.0, 512.0, 8.0, 25.0, starid.IdentifyConfig())
+    t0 = time.perf_counter()
+    search.cancel()
+    res = search.result()
+    assert time.perf_counter() - t0 < 0.5 and not res.ok and "cancelled" in repr(search)
+    assert search.result().status == res.status
 
 
 @given(st.floats(0.0, 360.0), st.floats(-80.0, 80.0), st.floats(0.0, 360.0))

@@ -18,6 +18,7 @@ __all__ = [
     "InvalidInputError",
     "StaridError",
     "Tracker",
+    "PendingSearch",
     "GUIDE_MAX_TRIALS",
     "CONFIRM_UNSEEN_FRAMES",
     "INCONSISTENT_RMS_PX",
@@ -38,6 +39,7 @@ __all__ = [
     "identify_hinted_many",
     "identify_many",
     "identify_unknown_fov",
+    "identify_unknown_fov_start",
     "identify_unknown_fov_many",
     "methods",
     "quaternion_from_radec_roll",
@@ -564,6 +566,21 @@ def identify_unknown_fov(
     fov_hi_deg: float,
     config: IdentifyConfig,
 ) -> Identification: ...
+@final
+class PendingSearch:
+    def cancel(self) -> None: ...
+    def result(self) -> Identification: ...
+
+def identify_unknown_fov_start(
+    catalog: Catalog,
+    xy: npt.NDArray[np.float64],
+    magnitudes: Optional[npt.NDArray[np.float64]],
+    width_px: float,
+    height_px: float,
+    fov_lo_deg: float,
+    fov_hi_deg: float,
+    config: IdentifyConfig,
+) -> PendingSearch: ...
 def identify_unknown_fov_many(
     catalog: Catalog,
     xys: list[npt.NDArray[np.float64]],

@@ -10,11 +10,18 @@ counts only if that identification passes too. The last stage searches the range
 
 The false-match bound is shared among the stages (a union bound): each search, and each
 identification again, is held to ``max_false_match_prob`` over the number of stages.
+
+A single frame the first stage does not identify, on a machine of more than one core, has its
+last, full stage begun on a thread of its own beside the other quick stages: what it finds
+counts only where they find nothing (the stages' order decides, as when they run in turn), and
+it is stopped as soon as one of them identifies the frame. A frame that nothing identifies then
+takes the longer of the two, not their sum.
 """
 
 from __future__ import annotations
 
 import functools
+import os
 from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
@@ -133,7 +140,17 @@ def identify_unknown_field(
     results: list[Any] = [None] * len(xys)
     spent = [0.0] * len(xys)
     todo = list(range(len(xys)))
-    for lo, hi, load, spots, budget in plan:
+    # One frame left after the first stage, with cores to spare: the full stage runs beside the
+    # quick ones (see the module's notes). (frame, its search, the frame's time when it began)
+    beside: Optional[tuple[int, Any, float]] = None
+    for k, (lo, hi, load, spots, budget) in enumerate(plan):
+        if beside is not None and k == len(plan) - 1:
+            i, search, began = beside
+            beside = None
+            res = search.result()
+            spent[i] = max(spent[i], began + res.time_s)
+            results[i] = res
+            break
         if limit is not None:
             todo = [i for i in todo if results[i] is None or spent[i] < limit]
         if not todo:
@@ -160,12 +177,42 @@ def identify_unknown_field(
             if not res.ok and res.status != "invalid_input":
                 left.append(i)
         todo = left
+        if beside is not None and beside[0] not in todo:
+            beside[1].cancel()
+            beside = None
+        if full and k == 0 and len(todo) == 1 and len(plan) > 2 and _cores(threads) > 1 and (limit is None or spent[todo[0]] < limit):
+            beside = _full_stage_beside(plan[-1], todo[0], xys, mags, size, share, limit, spent)
+    if beside is not None:
+        beside[1].cancel()
     out_of_time = set() if limit is None else {
         i for i, r in enumerate(results) if not r.ok and r.status != "invalid_input" and spent[i] >= limit
     }
     return [
         r._restated("timeout" if i in out_of_time else None, spent[i], float(len(plan))) for i, r in enumerate(results)
     ]
+
+
+def _cores(threads: Optional[int]) -> int:
+    """The threads a call may use: ``threads``, or every core."""
+    return (os.cpu_count() or 1) if threads is None else int(threads)
+
+
+def _full_stage_beside(
+    stage: Stage,
+    i: int,
+    xys: Sequence[npt.NDArray[np.float64]],
+    mags: Sequence[Optional[npt.NDArray[np.float64]]],
+    size: tuple[float, float],
+    share: Any,
+    limit: Optional[float],
+    spent: list[float],
+) -> tuple[int, Any, float]:
+    """The last, full stage of frame ``i`` begun on a thread of its own: ``(i, the search, the
+    frame's time so far)``."""
+    lo, hi, load, _, _ = stage
+    stage_cfg = share if limit is None else share.replace(timeout_s=limit - spent[i])
+    search = _starid.identify_unknown_fov_start(load()._native, xys[i], mags[i], size[0], size[1], lo, hi, stage_cfg)
+    return (i, search, spent[i])
 
 
 def identify_rough_field(

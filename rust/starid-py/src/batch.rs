@@ -296,3 +296,117 @@ pub fn identify_unknown_fov_many<'py>(
     .map_err(PyStaridError)?;
     results(py, catalog, out, frames)
 }
+
+/// What a search on a thread of its own leaves: the identification, the camera found (or the
+/// focal length unknown) and the focal length's 1σ.
+type Found = (Identification, Camera, f64);
+
+/// One frame searched with its field of view unknown on a thread of its own, while the caller
+/// goes on (with other searches of the same frame): `result()` waits for it, `cancel()` ends it
+/// at its next check.
+#[pyclass(name = "PendingSearch", module = "starid._starid", frozen)]
+pub struct PyPendingSearch {
+    cancel: Cancel,
+    slot: std::sync::Arc<Slot<Found>>,
+    done: std::sync::Mutex<Option<Found>>,
+    catalog: Py<PyCatalog>,
+    frame: Frame,
+}
+
+#[pymethods]
+impl PyPendingSearch {
+    /// End the search at its next check (its result is then a search cut short).
+    fn cancel(&self) {
+        self.cancel.cancel();
+    }
+
+    /// The search's result, waiting for it with the GIL released (Ctrl-C ends the search and
+    /// raises KeyboardInterrupt).
+    fn result(&self, py: Python<'_>) -> PyResult<PyIdentification> {
+        let mut done = self
+            .done
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if done.is_none() {
+            *done = Some(self.slot.wait(py, || self.cancel.cancel())?);
+        }
+        let (id, cam, sigma) = done.clone().expect("filled above");
+        let (xy, m) = self.frame.clone();
+        Ok(PyIdentification::new(self.catalog.get(), id, &cam, sigma).with_spots(xy, m))
+    }
+
+    fn __repr__(&self) -> String {
+        let state = if self.cancel.is_cancelled() {
+            "cancelled"
+        } else {
+            "started"
+        };
+        format!("PendingSearch({state})")
+    }
+}
+
+/// A search nobody waits for any more ends at its next check.
+impl Drop for PyPendingSearch {
+    fn drop(&mut self) {
+        self.cancel.cancel();
+    }
+}
+
+/// One frame of a sensor whose field of view lies in `[fov_lo_deg, fov_hi_deg]`, searched on a
+/// thread of its own: returns at once with the search under way.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn identify_unknown_fov_start<'py>(
+    py: Python<'py>,
+    catalog: &Bound<'py, PyCatalog>,
+    xy: PyReadonlyArray2<'py, f64>,
+    magnitudes: Option<PyReadonlyArray1<'py, f64>>,
+    width_px: f64,
+    height_px: f64,
+    fov_lo_deg: f64,
+    fov_hi_deg: f64,
+    config: &Bound<'py, PyIdentifyConfig>,
+) -> PyResult<PyPendingSearch> {
+    let frame = convert::frame(&xy, magnitudes.as_ref())?;
+    let (solver, range, widest) = crate::pointing::unknown_fov_setup(
+        py, catalog, width_px, height_px, fov_lo_deg, fov_hi_deg,
+    )?;
+    let cancel = Cancel::new();
+    let cfg = starid_core::IdentifyConfig {
+        cancel: Some(cancel.clone()),
+        ..config.get().inner.clone()
+    };
+    let slot = std::sync::Arc::new(Slot::new());
+    let (theirs, (xy, m)) = (slot.clone(), frame.clone());
+    std::thread::Builder::new()
+        .name("starid-search".into())
+        .spawn(move || {
+            theirs.fill(|| {
+                match solver.identify_unknown_focal(
+                    &xy,
+                    m.as_deref(),
+                    width_px,
+                    height_px,
+                    range,
+                    &cfg,
+                ) {
+                    Ok(r) => crate::pointing::unknown_fov_result(r, &widest),
+                    Err(e) => (
+                        invalid(0, xy.len(), &e.to_string()),
+                        crate::pointing::focal_unknown(&widest),
+                        f64::NAN,
+                    ),
+                }
+            });
+        })
+        .map_err(|e| {
+            crate::errors::InvalidInputError::new_err(format!("no thread for the search: {e}"))
+        })?;
+    Ok(PyPendingSearch {
+        cancel,
+        slot,
+        done: std::sync::Mutex::new(None),
+        catalog: catalog.clone().unbind(),
+        frame,
+    })
+}

@@ -667,6 +667,8 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pointing::monte_carlo_distances, m)?)?;
     m.add_function(wrap_pyfunction!(pointing::identify_unknown_fov, m)?)?;
     m.add_function(wrap_pyfunction!(batch::identify_unknown_fov_many, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::identify_unknown_fov_start, m)?)?;
+    m.add_class::<batch::PyPendingSearch>()?;
     m.add_function(wrap_pyfunction!(batch::identify_hinted_many, m)?)?;
     m.add("StaridError", m.py().get_type::<StaridError>())?;
     m.add("CatalogError", m.py().get_type::<CatalogError>())?;
