@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -224,6 +225,31 @@ def test_the_full_stage_beside_the_quick_ones_gives_what_they_give_in_turn(monke
         assert np.array_equal(one.ids, two.ids) and one.fov_deg == two.fov_deg
         named = two.ids >= 0
         assert np.array_equal(two.ids[named], f.true_ids[named])
+
+
+def test_a_batch_of_an_unknown_field_searches_its_frames_left_at_the_field_learned() -> None:
+    # Twelve frames of one camera, ten false spots each: one by one, the stages miss seeds 2,
+    # 7 and 11; as a batch, the field the others agree on finds them too, named right.
+    deep = starid.Catalog.deep(9.0)
+    size = (1024, 768)
+    frames = [
+        starid.simulate(deep, 12.0, size, seed=s, mag_limit=7.0, noise_px=0.3, mag_noise=0.2, false_stars=10)
+        for s in range(12)
+    ]
+    kw = dict(image_size=size, mag_offset=None)
+    assert not any(starid.identify(frames[s].xy, magnitudes=frames[s].magnitudes + 3.0, **kw).ok for s in (2, 7, 11))
+    batch = starid.identify_many([f.xy for f in frames], magnitudes=[f.magnitudes + 3.0 for f in frames], **kw)
+    assert all(r.ok for r in batch)
+    for r, f in zip(batch, frames):
+        named = r.ids >= 0
+        assert np.array_equal(r.ids[named], f.true_ids[named]) and abs(r.fov_deg / 12.0 - 1) < 2e-3
+        assert r.false_match_probability <= 1e-3
+    assert unknown_field.learned_field(batch[:3]) == pytest.approx(12.0, rel=2e-3)
+    # Too few frames identified, or frames of several lenses: nothing is learned.
+    assert unknown_field.learned_field(batch[:2]) is None
+    lenses = [SimpleNamespace(ok=True, fov_deg=v) for v in (12.0, 12.01, 15.0, 15.02, 20.0)]
+    assert unknown_field.learned_field(lenses) is None
+    assert unknown_field.learned_field(lenses[:2] + [SimpleNamespace(ok=True, fov_deg=12.05)]) == 12.01
 
 
 def test_a_search_begun_beside_stops_when_told() -> None:

@@ -21,6 +21,7 @@ __all__ = [
     "PendingSearch",
     "GUIDE_MAX_TRIALS",
     "CONFIRM_UNSEEN_FRAMES",
+    "FOCAL_LEARN_MIN_FRAMES",
     "INCONSISTENT_RMS_PX",
     "__version__",
     "guide_field_counts",
@@ -63,6 +64,7 @@ __version__: str
 INCONSISTENT_RMS_PX: float
 GUIDE_MAX_TRIALS: int
 CONFIRM_UNSEEN_FRAMES: int
+FOCAL_LEARN_MIN_FRAMES: int
 
 class StaridError(ValueError):
     """Base class of starid's own exceptions (a ValueError: each says what input is wrong)."""

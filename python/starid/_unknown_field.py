@@ -16,13 +16,18 @@ last, full stage begun on a thread of its own beside the other quick stages: wha
 counts only where they find nothing (the stages' order decides, as when they run in turn), and
 it is stopped as soon as one of them identifies the frame. A frame that nothing identifies then
 takes the longer of the two, not their sum.
+
+A batch learns its field: the frames no stage identified are searched once more at the field
+of view its identified frames agree on (:func:`learned_field`), an estimate within the
+configured tolerance, as a batch with the field given searches its frames again at the focal
+length it learns. That search takes its share of the bound as a stage does.
 """
 
 from __future__ import annotations
 
 import functools
 import os
-from typing import Any, Callable, Optional, Sequence, Union
+from typing import Any, Callable, Optional, Sequence, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -126,7 +131,12 @@ def identify_unknown_field(
 
     A frame's ``time_s`` counts all its stages, and ``timeout_s`` binds them together: a frame
     out of time searches no further and reports ``timeout``. Its false-match bound is that of
-    the identification that named it times the number of stages (a union bound)."""
+    the identification that named it times the number of searches (a union bound).
+
+    A batch of at least ``FOCAL_LEARN_MIN_FRAMES`` frames whose identified frames agree on the
+    field of view (see :func:`learned_field`) searches the frames no stage identified once more
+    at that field, given as an estimate, as a batch with the field given does with the focal
+    length it learns."""
     if not cfg.verify:
         raise InvalidInputError(
             "verify=false (raw method answers) needs a known field of view: the focal length is fitted to verified matches"
@@ -134,7 +144,10 @@ def identify_unknown_field(
     plan = stages(catalog, fov_range, size, full)
     if not plan:
         raise InvalidInputError(f"no band of fields of view meets {fov_range}")
-    share = cfg.replace(max_false_match_prob=cfg.max_false_match_prob / len(plan))
+    # A batch that may learn its field searches once more: a share of the bound for it too.
+    learn = full and len(xys) >= _starid.FOCAL_LEARN_MIN_FRAMES
+    searches = len(plan) + int(learn)
+    share = cfg.replace(max_false_match_prob=cfg.max_false_match_prob / searches)
     limit: Optional[float] = cfg.timeout_s
     w, h = size
     results: list[Any] = [None] * len(xys)
@@ -184,12 +197,67 @@ def identify_unknown_field(
             beside = _full_stage_beside(plan[-1], todo[0], xys, mags, size, share, limit, spent)
     if beside is not None:
         beside[1].cancel()
+    if learn:
+        _search_at_learned_field(catalog, xys, mags, size, share, limit, threads, results, spent)
     out_of_time = set() if limit is None else {
         i for i, r in enumerate(results) if not r.ok and r.status != "invalid_input" and spent[i] >= limit
     }
     return [
-        r._restated("timeout" if i in out_of_time else None, spent[i], float(len(plan))) for i, r in enumerate(results)
+        r._restated("timeout" if i in out_of_time else None, spent[i], float(searches)) for i, r in enumerate(results)
     ]
+
+
+#: How close to their median (a fraction) the fields of view of a batch's identified frames
+#: lie to agree on it.
+FIELD_AGREEMENT = 0.01
+
+
+def learned_field(results: Sequence[Any]) -> Optional[float]:
+    """The field of view (degrees) a batch's identified frames agree on: the median of theirs,
+    where at least ``FOCAL_LEARN_MIN_FRAMES`` are identified and two thirds of them lie within
+    :data:`FIELD_AGREEMENT` of it; None otherwise (frames of several lenses, or too few)."""
+    fovs = [float(r.fov_deg) for r in results if r is not None and r.ok]
+    if len(fovs) < _starid.FOCAL_LEARN_MIN_FRAMES:
+        return None
+    median = float(np.median(fovs))
+    agree = sum(abs(f / median - 1.0) <= FIELD_AGREEMENT for f in fovs)
+    return median if 3 * agree >= 2 * len(fovs) else None
+
+
+def _search_at_learned_field(
+    catalog: CatalogLike,
+    xys: Sequence[npt.NDArray[np.float64]],
+    mags: Sequence[Optional[npt.NDArray[np.float64]]],
+    size: tuple[float, float],
+    share: Any,
+    limit: Optional[float],
+    threads: Optional[int],
+    results: list[Any],
+    spent: list[float],
+) -> None:
+    """The frames no stage identified (and with time left), searched by the core's batch at the
+    field the identified frames agree on; a frame it identifies takes that result."""
+    left = [
+        i for i, r in enumerate(results)
+        if r is not None and not r.ok and r.status != "invalid_input" and (limit is None or spent[i] < limit)
+    ]
+    fov = learned_field(results) if left else None
+    if fov is None:
+        return
+    left_mags = [m for m in (mags[i] for i in left) if m is not None]
+    pooled = np.concatenate(left_mags) if left_mags else None
+    cat = catalog_for(fov, size, pooled, share.mag_offset) if catalog is None else resolve_catalog(catalog)
+    cfg = share if limit is None else share.replace(timeout_s=max(limit - spent[i] for i in left))
+    # (A batch's frames have magnitudes or none has: see identify_many.)
+    with_mags = left_mags if len(left_mags) == len(left) else None
+    again = cast(
+        list[Any],
+        _starid.identify_many(cat._native, [xys[i] for i in left], with_mags, _starid.Camera(size, fov), cfg, threads),
+    )
+    for i, res in zip(left, again):
+        spent[i] += res.time_s
+        if res.ok:
+            results[i] = res
 
 
 def _cores(threads: Optional[int]) -> int:

@@ -621,6 +621,10 @@ fn _starid(m: &Bound<'_, PyModule>) -> PyResult<()> {
         starid_core::tracking::CONFIRM_UNSEEN_FRAMES,
     )?;
     m.add(
+        "FOCAL_LEARN_MIN_FRAMES",
+        starid_core::identify::FOCAL_LEARN_MIN_FRAMES,
+    )?;
+    m.add(
         "INCONSISTENT_RMS_PX",
         starid_core::pointing::INCONSISTENT_RMS_PX,
     )?;
