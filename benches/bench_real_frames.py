@@ -1,6 +1,6 @@
 """Real frames in, per frame: what the extractor measured and what identification made of it.
 
-    python benches/bench_real_frames.py ../shared/data/real-images [--mode exact given unknown]
+    python benches/bench_real_frames.py ../shared/data/real-images [--mode exact given batch unknown unknown-batch]
 
 For each frame of a folder with a ``truth.json`` (field of view and, where known, the
 boresight): the share of pixels at the image's lowest value (a background clipped at zero), the
@@ -8,7 +8,8 @@ noise σ the extractor measured, the spots it kept and whether that is its cap, 
 identification with the field of view ``exact`` (the 6° camera's measured 6.076°), ``given`` (as
 ``truth.json`` states it, an estimate within the default tolerance), ``batch`` (given, each
 folder's frames as one ``identify_many`` batch, which learns the focal length its identified
-frames agree on) and ``unknown``: status,
+frames agree on), ``unknown`` and ``unknown-batch`` (no field, each folder's frames as one
+batch, which learns the field its identified frames of one size agree on): status,
 stars named, boresight error against the known one where there is one. Where the exact field
 identifies the frame, the spots no catalogue star of the deep bundled catalogue (Hipparcos to Hp 8)
 lies within 2 px of under that solution are counted: spurious spots, or stars fainter than the
@@ -51,9 +52,8 @@ def spots_off_catalogue(r: starid.Identification, c: starid.Centroids, catalog: 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("folder", type=Path)
-    p.add_argument(
-        "--mode", nargs="+", default=["exact", "given", "batch", "unknown"], choices=["exact", "given", "batch", "unknown"]
-    )
+    modes = ["exact", "given", "batch", "unknown", "unknown-batch"]
+    p.add_argument("--mode", nargs="+", default=modes, choices=modes)
     args = p.parse_args()
     truth = json.loads((args.folder / "truth.json").read_text())
     batched: dict[str, tuple[starid.Identification, float]] = {}
@@ -67,6 +67,16 @@ def main() -> None:
             rs = starid.identify_many([args.folder / n for n in names], fov_deg=fov)
             each = 1e3 * (time.perf_counter() - t0) / len(names)
             batched.update({n: (r, each) for n, r in zip(names, rs)})
+    unknown_batched: dict[str, tuple[starid.Identification, float]] = {}
+    if "unknown-batch" in args.mode:
+        folders: dict[str, list[str]] = {}
+        for name in truth:
+            folders.setdefault(name.split("/")[0], []).append(name)
+        for names in folders.values():
+            t0 = time.perf_counter()
+            rs = starid.identify_many([args.folder / n for n in names])
+            each = 1e3 * (time.perf_counter() - t0) / len(names)
+            unknown_batched.update({n: (r, each) for n, r in zip(names, rs)})
     deep = starid.Catalog.deep()
     print("| frame | at lowest value | noise σ | spots | spots off the catalogue | " + " | ".join(args.mode) + " |")
     print("|---|---|---|---|---|" + "---|" * len(args.mode))
@@ -80,12 +90,12 @@ def main() -> None:
             fov = t.get("fov_deg")
             if mode == "exact":
                 fov = MEASURED_FOV.get(name.split("/")[0], fov)
-            if mode != "unknown" and fov is None:
+            if not mode.startswith("unknown") and fov is None:
                 cells.append("(no field)")
                 continue
             t0 = time.perf_counter()
-            if mode == "batch":
-                r, dt = batched[name]
+            if mode in ("batch", "unknown-batch"):
+                r, dt = (batched if mode == "batch" else unknown_batched)[name]
             else:
                 r = starid.identify(img, fov_deg=fov) if mode != "unknown" else starid.identify(img)
                 dt = 1e3 * (time.perf_counter() - t0)
