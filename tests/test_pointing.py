@@ -229,7 +229,8 @@ def test_the_full_stage_beside_the_quick_ones_gives_what_they_give_in_turn(monke
 
 def test_a_batch_of_an_unknown_field_searches_its_frames_left_at_the_field_learned() -> None:
     # Twelve frames of one camera, ten false spots each: one by one, the stages miss seeds 2,
-    # 7 and 11; as a batch, the field the others agree on finds them too, named right.
+    # 7 and 11; as a batch, the field the others agree on finds them too, named right. Sets of
+    # random points in the batch, searched again at that field, stay unnamed.
     deep = starid.Catalog.deep(9.0)
     size = (1024, 768)
     frames = [
@@ -238,7 +239,15 @@ def test_a_batch_of_an_unknown_field_searches_its_frames_left_at_the_field_learn
     ]
     kw = dict(image_size=size, mag_offset=None)
     assert not any(starid.identify(frames[s].xy, magnitudes=frames[s].magnitudes + 3.0, **kw).ok for s in (2, 7, 11))
-    batch = starid.identify_many([f.xy for f in frames], magnitudes=[f.magnitudes + 3.0 for f in frames], **kw)
+    rng = np.random.default_rng(8)
+    noise = [(rng.uniform(0, 1, (n, 2)) * size, rng.uniform(3.0, 9.0, n)) for n in (8, 15, 25, 40)]
+    batch = starid.identify_many(
+        [f.xy for f in frames] + [xy for xy, _ in noise],
+        magnitudes=[f.magnitudes + 3.0 for f in frames] + [m for _, m in noise],
+        **kw,
+    )
+    assert not any(r.ok for r in batch[12:])
+    batch = batch[:12]
     assert all(r.ok for r in batch)
     for r, f in zip(batch, frames):
         named = r.ids >= 0
