@@ -295,7 +295,8 @@ def identify_frames(
         frame for frame; a malformed frame or record gets status ``invalid_input``, never stops
         the job. With ``mag_offset=None`` (a zero point to learn), each partition is the batch
         that learns it, as ``identify_many`` over that partition's frames would: a job of many
-        partitions does not pool them. So is the centroid noise (``learn_noise``), and with
+        partitions does not pool them. So is the centroid noise (``learn_noise``), the focal
+        length of a field given as an estimate, the field of view where none is given, and with
         ``catalog=None`` the bundled catalogue chosen for the frames' magnitudes.
     """
     if fov_deg is not None or kwargs.get("camera") is not None:
