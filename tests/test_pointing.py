@@ -326,6 +326,21 @@ def test_cli_identify_with_unknown_fov(tmp_path, capsys) -> None:  # type: ignor
     assert "field of view (estimated): 14.99" in out or "field of view (estimated): 15.00" in out
 
 
+def test_cli_star_lists_with_no_field_are_one_batch_that_learns_it(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    # Seeds 2, 7 and 11 are not identified alone (ten false spots each); among their camera's
+    # other frames, whose field the batch learns, they are.
+    deep = starid.Catalog.deep(9.0)
+    files = []
+    for s in range(12):
+        f = starid.simulate(deep, 12.0, (1024, 768), seed=s, mag_limit=7.0, noise_px=0.3, mag_noise=0.2, false_stars=10)
+        files.append(tmp_path / f"f{s:02d}.csv")
+        np.savetxt(files[-1], np.column_stack([f.xy, f.magnitudes]), delimiter=",", header="x,y,mag", comments="")
+    assert main(["identify", str(files[2]), "--size", "1024x768"]) == 1
+    capsys.readouterr()
+    assert main(["identify", *map(str, files), "--size", "1024x768"]) == 0
+    assert "12/12 frames identified" in capsys.readouterr().out
+
+
 def test_simulated_radial_distortion_is_recovered(bundled: starid.Catalog) -> None:
     frame = starid.simulate(bundled, 16.0, (1024, 1024), seed=5, radial_k1=-0.08)
     res = starid.identify(frame.xy, bundled, fov_deg=16.0, image_size=(1024, 1024))

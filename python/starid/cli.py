@@ -276,10 +276,11 @@ def _identify(args: argparse.Namespace) -> int:
         )
 
     solved: dict[int, Identification] = {}
-    if (fov is not None or camera is not None) and fov_range is None and len(files) - len(unreadable) >= 3:
+    if len(files) - len(unreadable) >= 3:
         # Many frames of one camera: identified in batches on every core (Rust threads), with a
         # progress bar between batches; one batch per sensor size and kind of file, so that the
-        # frames learn their magnitudes' zero point together (an image's is always unknown).
+        # frames learn their magnitudes' zero point together (an image's is always unknown), and
+        # their field of view where it is an estimate or not given.
         groups: dict[tuple[Any, bool], list[int]] = {}
         for k in range(len(files)):
             if k not in unreadable:
@@ -291,6 +292,7 @@ def _identify(args: argparse.Namespace) -> int:
                     [star_lists[k].xy for k in chunk],
                     catalog=catalog,
                     **_geometry(camera, fov, group_size),
+                    fov_range_deg=fov_range,
                     magnitudes=None if args.no_magnitudes else [star_lists[k].magnitudes for k in chunk],
                     centroid_sigma_px=args.sigma_px,
                     max_false_match_prob=args.max_false_prob,
