@@ -28,7 +28,7 @@ from ._errors import InvalidInputError
 from ._read import LUMA_WEIGHTS, MAX_IMAGE_PIXELS, _as_image, _load, image_size_of, read_image
 from ._simulate import Frame, _frame
 from ._solve import identify_centroids
-from ._unknown_field import identify_rough_field
+from ._unknown_field import identify_rough_field, stages
 from .plot import annotate
 from .wcs import wcs, wcs_header
 
@@ -208,14 +208,16 @@ def _maybe(convert: Any, value: Any) -> Any:
 
 
 def warm_index(image: Any, catalog: CatalogLike, fov_deg: Optional[float], kwargs: dict[str, Any]) -> Optional[threading.Thread]:
-    """Start loading what identifying ``image`` will need (the catalogue starid chooses for the
-    field, its pair index from the disk cache) on a thread of its own, while the image is read
-    and its spots extracted on this one; join it before identifying. None where the image's
-    field, size or catalogue is not known ahead (a range, a hint, a zero point given, which
-    may choose a deeper catalogue from the spots). Best effort: the identification reports
+    """Start loading what identifying ``image`` will need on a thread of its own, while the
+    image is read and its spots extracted on this one; join it before identifying. With the
+    field known: the catalogue starid chooses for it and its pair index from the disk cache.
+    With no field given: the first stage's catalogue and index, then the deep catalogue that
+    a narrow field's frame is identified with again (see ``starid._unknown_field``). None
+    where what is needed is not known ahead (a range, a hint, a zero point given, which may
+    choose a deeper catalogue from the spots). Best effort: the identification reports
     whatever goes wrong."""
     camera = kwargs.get("camera")
-    if (fov_deg is None and camera is None) or kwargs.get("fov_range_deg") is not None:
+    if kwargs.get("fov_range_deg") is not None:
         return None
     if kwargs.get("attitude_hint") is not None or kwargs.get("mag_offset") is not None:
         return None
@@ -227,6 +229,12 @@ def warm_index(image: Any, catalog: CatalogLike, fov_deg: Optional[float], kwarg
 
     def load() -> None:
         try:
+            if camera is None and fov_deg is None:
+                _, hi, first, _, _ = stages(catalog, None, size)[0]
+                first()._native.index_info(_camera(None, hi, size).diagonal_fov_deg, False)
+                if catalog is None:
+                    Catalog.deep()
+                return
             cam = camera if camera is not None else _camera(None, fov_deg, size)
             cat = catalog if catalog is not None else catalog_for(cam.fov_deg, cam.image_size)
             cat._native.index_info(cam.diagonal_fov_deg, False)
