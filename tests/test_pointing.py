@@ -186,6 +186,9 @@ def test_the_stages_of_an_unknown_field() -> None:
         (8.0, 25.0, 10), (4.0, 8.0, 10), (4.0, 8.0, 10), (4.0, 8.0, 6), (25.0, 60.0, 10), (8.0, 25.0, None)
     ]
     assert [load().name.split()[1] for _, _, load, _, _ in plan] == ["Hp<=6.5", "Hp<=6.5", "Hp<=7", "Hp<=8", "Hp<=5.5", "Hp<=6.5"]
+    # The first stage's band is the full stage's: half the budget, the full stage finding the rest.
+    assert [pairs for *_, pairs in plan] == [50_000, 100_000, 100_000, 100_000, 100_000, None]
+    assert [pairs for *_, pairs in stages(None, None, size, full=False)] == [100_000] * 5
     # A range given narrows the bands; the last stage searches all of it with every spot.
     narrowed = [(lo, hi) for lo, hi, *_ in stages(None, (5.0, 10.0), size)]
     assert narrowed == [(8.0, 10.0), (5.0, 8.0), (5.0, 8.0), (5.0, 8.0), (5.0, 10.0)]

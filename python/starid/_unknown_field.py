@@ -46,6 +46,11 @@ STAGE_SPOTS = 10
 #: Catalogue pairs a quick stage may visit per frame (about 0.1 s).
 STAGE_PAIRS = 100_000
 
+#: Catalogue pairs the first quick stage may visit where the full stage searches its band
+#: after it: a frame of that band that needs more is found there (beside the other quick
+#: stages, on more than one core), and a frame of another band waits half as long for it.
+COVERED_STAGE_PAIRS = 50_000
+
 #: The quick stages: a band of fields of view (degrees), the depth of the bundled catalogue
 #: searched in it (Hp) and how many of the brightest spots, in the order tried. The brightest
 #: spots of a field of 4-8 degrees are mostly stars to Hp 6.5-8 (the deeper the catalogue, the
@@ -76,9 +81,11 @@ def stages(
     """The stages of a search: ``(lo, hi, catalogue, spots or None for all, pair budget or None
     for the configured one)``, each catalogue a function that loads it. A range given keeps the
     quick stages within it; a catalogue given is searched in every one; ``full=False`` leaves
-    out the last, full search."""
+    out the last, full search. The first quick stage, where the full search covers its band,
+    has the smaller budget :data:`COVERED_STAGE_PAIRS`."""
     given = None if catalog is None else resolve_catalog(catalog)
     lo, hi = (0.0, 180.0) if fov_range is None else fov_range
+    full_lo, full_hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
     out: list[Stage] = []
     seen: "set[tuple[float, float, float]]" = set()
     for (blo, bhi), depth, spots in QUICK_STAGES:
@@ -86,10 +93,11 @@ def stages(
         key = (a, b, -1.0 if given is not None else depth)
         if a < b and key not in seen:
             seen.add(key)
-            out.append((a, b, _given_or(given, functools.partial(bundled, depth)), spots, STAGE_PAIRS))
+            covered = full and not out and full_lo <= a and b <= full_hi
+            pairs = COVERED_STAGE_PAIRS if covered else STAGE_PAIRS
+            out.append((a, b, _given_or(given, functools.partial(bundled, depth)), spots, pairs))
     if full:
-        lo, hi = DEFAULT_FOV_RANGE_DEG if fov_range is None else fov_range
-        out.append((lo, hi, _given_or(given, functools.partial(catalog_for, hi, size)), None, None))
+        out.append((full_lo, full_hi, _given_or(given, functools.partial(catalog_for, full_hi, size)), None, None))
     return out
 
 
