@@ -1,7 +1,7 @@
 """Frames of a field of view nobody gives: identified with neither ``fov_deg`` nor a range.
 
     python benches/bench_unknown_field.py [--frames 60] [--bands 4 8 8 25 25 50] [--false-stars 0] [--threads 1]
-                                          [--one-camera [--batch]]
+                                          [--one-camera [--batch]] [--covered-stage-pairs 50000]
 
 Per band of fields of view: frames of 1024x768 px with a field drawn uniformly in the band,
 stars of ``Catalog.deep(9)`` to a depth that leaves a few dozen in the field (magnitude
@@ -12,7 +12,8 @@ on first use included). ``--threads 1`` identifies each frame through ``identify
 thread: its stages in turn, the full one not begun beside the quick ones. ``--one-camera``
 gives every frame of a band the field drawn for its first; with ``--batch`` the band's frames
 are one ``identify_many`` call, which learns the field its identified frames agree on (times:
-the call's, shared out per frame).
+the call's, shared out per frame). ``--covered-stage-pairs`` sets the first stage's budget
+(``starid._unknown_field.COVERED_STAGE_PAIRS``), for side-by-side runs.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import time
 import numpy as np
 
 import starid
+import starid._unknown_field as unknown_field
 
 
 def main() -> None:
@@ -34,7 +36,10 @@ def main() -> None:
     p.add_argument("--threads", type=int, default=None, help="each frame alone through identify_many(threads=N)")
     p.add_argument("--one-camera", action="store_true", help="one field of view for all frames of a band")
     p.add_argument("--batch", action="store_true", help="with --one-camera: each band's frames as one batch")
+    p.add_argument("--covered-stage-pairs", type=int, default=None, help="the first stage's pair budget")
     args = p.parse_args()
+    if args.covered_stage_pairs is not None:
+        unknown_field.COVERED_STAGE_PAIRS = args.covered_stage_pairs
     if args.batch and not args.one_camera:
         p.error("--batch needs --one-camera")
     truth = starid.Catalog.deep(9.0)
