@@ -88,6 +88,8 @@ def test_a_flat_frame_is_divided_out_and_a_bad_one_refused() -> None:
         starid.extract_centroids(img, flat=np.zeros(img.shape, np.float32))
     with pytest.raises(starid.InvalidInputError, match="flat has shape"):
         starid.extract_centroids(img, flat=flat[:, :-1])
+    with pytest.raises(starid.InvalidInputError, match="dark holds no finite pixel"):
+        starid.extract_centroids(img, dark=np.full(img.shape, np.nan))
 
 
 def test_heavy_tailed_noise_does_not_flood_the_spots(bundled: starid.Catalog) -> None:

@@ -66,9 +66,12 @@ class ImageIdentification:
         return annotate(image, self, path, catalog=catalog, dpi=dpi)
 
 
-def _calibration_frame(frame: Optional[Union[npt.ArrayLike, PathLike]]) -> Optional[npt.NDArray[np.float32]]:
+def _calibration_frame(frame: Optional[Union[npt.ArrayLike, PathLike]], name: str) -> Optional[npt.NDArray[np.float32]]:
     """A dark or flat frame (array or file) as the core reads it: float32, C order."""
-    return None if frame is None else np.ascontiguousarray(_load(frame), dtype=np.float32)
+    if frame is None:
+        return None
+    pixels = read_image(frame) if isinstance(frame, (str, os.PathLike)) else _as_image(frame, name)
+    return np.ascontiguousarray(pixels, dtype=np.float32)
 
 
 def extract_centroids(
@@ -116,8 +119,8 @@ def extract_centroids(
     t1 = time.perf_counter()
     raw: dict[str, Any] = _starid.extract_centroids(
         img,
-        _calibration_frame(dark),
-        _calibration_frame(flat),
+        _calibration_frame(dark, "dark"),
+        _calibration_frame(flat, "flat"),
         _maybe(float, threshold_sigma),
         _maybe(lambda v: _whole("background_block", v), background_block),
         _maybe(lambda v: _whole("min_pixels", v), min_pixels),
