@@ -426,7 +426,6 @@ def test_the_index_loads_while_the_image_is_read(tmp_path: Path) -> None:
     os.mkfifo(fifo)
     assert image_size_of(fifo) is None  # never opened: it would wait for a writer
     # Nothing known ahead: no thread.
-    assert warm_index(png, None, None, {}) is None
     assert warm_index(png, None, 12.0, {"fov_range_deg": (10.0, 14.0)}) is None
     assert warm_index(png, None, 12.0, {"mag_offset": 2.0}) is None  # the spots may choose a deeper catalogue
     assert warm_index(bad, None, 12.0, {}) is None
@@ -441,6 +440,13 @@ def test_the_index_loads_while_the_image_is_read(tmp_path: Path) -> None:
         assert len(starid.index_cache_files()) == 1
         assert starid.identify(png, cat, 12.0).ok
         assert len(starid.index_cache_files()) == 1
+        # No field given: the first stage's index (8-25 degrees), which that search then uses.
+        thread = warm_index(png, cat, None, {})
+        assert thread is not None
+        thread.join()
+        assert len(starid.index_cache_files()) == 2
+        assert starid.identify(png, cat).ok
+        assert len(starid.index_cache_files()) == 2
     finally:
         starid.set_index_cache_dir(before)
 
