@@ -276,25 +276,41 @@ pub fn identify_unknown_fov_many<'py>(
                 crate::pointing::focal_unknown(&widest),
                 f64::NAN,
             ),
-            Ok((xy, m)) => match solver.identify_unknown_focal(
-                xy,
-                m.as_deref(),
-                width_px,
-                height_px,
+            Ok((xy, m)) => unknown_fov_frame(
+                &solver,
+                i,
+                (xy, m.as_deref()),
+                (width_px, height_px),
                 range,
+                &widest,
                 &cfg,
-            ) {
-                Ok(r) => crate::pointing::unknown_fov_result(r, &widest),
-                Err(e) => (
-                    invalid(i, xy.len(), &e.to_string()),
-                    crate::pointing::focal_unknown(&widest),
-                    f64::NAN,
-                ),
-            },
+            ),
         })
     })?
     .map_err(PyStaridError)?;
     results(py, catalog, out, frames)
+}
+
+/// Frame `i` searched over the focal lengths `range` of its sensor: the identification, the
+/// camera found (or the focal length unknown) and the focal length's 1σ; a frame the core
+/// refuses is an `invalid_input` result naming it.
+fn unknown_fov_frame(
+    solver: &starid_core::Solver,
+    i: usize,
+    (xy, magnitudes): (&[[f64; 2]], Option<&[f64]>),
+    (width_px, height_px): (f64, f64),
+    range: (f64, f64),
+    widest: &Camera,
+    config: &starid_core::IdentifyConfig,
+) -> Found {
+    match solver.identify_unknown_focal(xy, magnitudes, width_px, height_px, range, config) {
+        Ok(r) => crate::pointing::unknown_fov_result(r, widest),
+        Err(e) => (
+            invalid(i, xy.len(), &e.to_string()),
+            crate::pointing::focal_unknown(widest),
+            f64::NAN,
+        ),
+    }
 }
 
 /// What a search on a thread of its own leaves: the identification, the camera found (or the
@@ -382,21 +398,15 @@ pub fn identify_unknown_fov_start<'py>(
         .name("starid-search".into())
         .spawn(move || {
             theirs.fill(|| {
-                match solver.identify_unknown_focal(
-                    &xy,
-                    m.as_deref(),
-                    width_px,
-                    height_px,
+                unknown_fov_frame(
+                    &solver,
+                    0,
+                    (&xy, m.as_deref()),
+                    (width_px, height_px),
                     range,
+                    &widest,
                     &cfg,
-                ) {
-                    Ok(r) => crate::pointing::unknown_fov_result(r, &widest),
-                    Err(e) => (
-                        invalid(0, xy.len(), &e.to_string()),
-                        crate::pointing::focal_unknown(&widest),
-                        f64::NAN,
-                    ),
-                }
+                )
             });
         })
         .map_err(|e| {
