@@ -269,8 +269,12 @@ def _search_at_learned_field(
 
 
 def _cores(threads: Optional[int]) -> int:
-    """The threads a call may use: ``threads``, or every core."""
-    return (os.cpu_count() or 1) if threads is None else int(threads)
+    """The threads a call may use: ``threads``, or every core this process may run on."""
+    if threads is not None:
+        return int(threads)
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def _full_stage_beside(
