@@ -289,8 +289,4 @@ def _radec_roll_quaternion(ra: float, dec: float, roll: float) -> list[float]:
 
 def _invalid(message: str, n: int) -> Identification:
     """The result of a malformed frame of a batch: status ``invalid_input``, every id -1."""
-    nan = float("nan")
-    floats = [nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan, nan, nan, 0.0, 0.0, 0.0, 0.0, nan, nan]
-    state: tuple[Any, ...] = ("invalid_input", [-1] * n, [nan] * n, None, False, 1.0, 0, floats, 0, "auto", message,
-                              (False, False, None, ([], None, []), "none"))
-    return Identification._from_state(state)
+    return Identification._invalid_input(message, n)

@@ -613,6 +613,13 @@ impl PyIdentification {
         Self::from_state(state)
     }
 
+    /// The result of a malformed frame of a batch: status ``invalid_input``, ``message`` saying
+    /// what is wrong, ``n`` spots all unnamed.
+    #[staticmethod]
+    fn _invalid_input(message: String, n: usize) -> PyResult<Self> {
+        Self::invalid_input(message, n)
+    }
+
     /// This result as a search made of several stages reports it: another status (unless
     /// None), the time of all the stages, the false-match bound times ``bound_factor`` (a union
     /// bound, at most 1) and the focal length's uncertainty (unless None).

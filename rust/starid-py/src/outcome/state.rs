@@ -31,6 +31,36 @@ pub(super) type State = (
 type SpotState = (Vec<[f64; 2]>, Option<Vec<f64>>, Vec<[f64; 3]>);
 
 impl PyIdentification {
+    /// The result of a malformed frame of a batch: status `invalid_input`, `message` saying
+    /// what is wrong, `n` spots all unnamed, every measure NaN or zero.
+    pub(super) fn invalid_input(message: String, n: usize) -> PyResult<Self> {
+        let nan = f64::NAN;
+        let floats = [
+            nan, nan, 0.0, nan, nan, nan, nan, 0.0, nan, nan, nan, nan, nan, nan, 0.0, 0.0, 0.0,
+            0.0, nan, nan,
+        ];
+        Self::from_state((
+            Status::InvalidInput.as_str().to_string(),
+            vec![-1; n],
+            vec![nan; n],
+            None,
+            false,
+            1.0,
+            0,
+            floats,
+            0,
+            "auto".to_string(),
+            Some(message),
+            (
+                false,
+                false,
+                None,
+                (Vec::new(), None, Vec::new()),
+                NoiseSource::None.as_str().to_string(),
+            ),
+        ))
+    }
+
     /// The plain values, for `__reduce__`.
     pub(super) fn state(&self) -> State {
         let me = self;
