@@ -201,7 +201,8 @@ def identify_unknown_field(
         if beside is not None and beside[0] not in todo:
             beside[1].cancel()
             beside = None
-        if full and k == 0 and len(todo) == 1 and len(plan) > 2 and _cores(threads) > 1 and (limit is None or spent[todo[0]] < limit):
+        alone = len(todo) == 1 and (limit is None or spent[todo[0]] < limit)
+        if full and k == 0 and alone and len(plan) > 2 and _cores(threads) > 1:
             beside = _full_stage_beside(plan[-1], todo[0], xys, mags, size, share, limit, spent)
     if beside is not None:
         beside[1].cancel()
