@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 import time
 from types import SimpleNamespace
 
@@ -273,6 +274,17 @@ def test_a_search_begun_beside_stops_when_told() -> None:
     res = search.result()
     assert time.perf_counter() - t0 < 0.5 and not res.ok and "cancelled" in repr(search)
     assert search.result().status == res.status
+    # Two threads waiting on one search: each gets its result once it is stopped.
+    search = starid._starid.identify_unknown_fov_start(cat._native, spots, None, 512.0, 512.0, 8.0, 25.0, starid.IdentifyConfig())
+    got: list[str] = []
+    waiters = [threading.Thread(target=lambda: got.append(search.result().status)) for _ in range(2)]
+    for w in waiters:
+        w.start()
+    time.sleep(0.05)
+    search.cancel()
+    for w in waiters:
+        w.join(timeout=5.0)
+    assert len(got) == 2 and got[0] == got[1] and not any(w.is_alive() for w in waiters)
 
 
 @given(st.floats(0.0, 360.0), st.floats(-80.0, 80.0), st.floats(0.0, 360.0))

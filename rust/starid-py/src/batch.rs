@@ -324,7 +324,10 @@ type Found = (Identification, Camera, f64);
 pub struct PyPendingSearch {
     cancel: Cancel,
     slot: std::sync::Arc<Slot<Found>>,
-    done: std::sync::Mutex<Option<Found>>,
+    /// The result, once a caller has taken it from the slot (None: the search panicked).
+    done: std::sync::OnceLock<Option<Found>>,
+    /// Whether a caller is waiting on the slot (the others wait for it to fill `done`).
+    waiting: std::sync::atomic::AtomicBool,
     catalog: Py<PyCatalog>,
     frame: Frame,
 }
@@ -339,14 +342,37 @@ impl PyPendingSearch {
     /// The search's result, waiting for it with the GIL released (Ctrl-C ends the search and
     /// raises KeyboardInterrupt).
     fn result(&self, py: Python<'_>) -> PyResult<PyIdentification> {
-        let mut done = self
-            .done
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        if done.is_none() {
-            *done = Some(self.slot.wait(py, || self.cancel.cancel())?);
-        }
-        let (id, cam, sigma) = done.clone().expect("filled above");
+        use std::sync::atomic::Ordering;
+        let (id, cam, sigma) = loop {
+            match self.done.get() {
+                Some(Some(found)) => break found.clone(),
+                Some(None) => {
+                    return Err(crate::errors::InvalidInputError::new_err(
+                        "a starid worker thread panicked",
+                    ))
+                }
+                None => {}
+            }
+            // One caller waits on the slot; another (a second Python thread) checks back every
+            // millisecond with the GIL released, so that neither holds it from the other.
+            if self
+                .waiting
+                .compare_exchange(false, true, Ordering::AcqRel, Ordering::Acquire)
+                .is_ok()
+            {
+                let interrupted = py.check_signals();
+                if interrupted.is_err() {
+                    self.cancel.cancel();
+                } else if let Some(taken) = self.slot.take(py, Some(SIGNAL_CHECK)) {
+                    let _ = self.done.set(taken.ok());
+                }
+                self.waiting.store(false, Ordering::Release);
+                interrupted?;
+            } else {
+                py.detach(|| std::thread::sleep(std::time::Duration::from_millis(1)));
+                py.check_signals()?;
+            }
+        };
         let (xy, m) = self.frame.clone();
         Ok(PyIdentification::new(self.catalog.get(), id, &cam, sigma).with_spots(xy, m))
     }
@@ -415,7 +441,8 @@ pub fn identify_unknown_fov_start<'py>(
     Ok(PyPendingSearch {
         cancel,
         slot,
-        done: std::sync::Mutex::new(None),
+        done: std::sync::OnceLock::new(),
+        waiting: std::sync::atomic::AtomicBool::new(false),
         catalog: catalog.clone().unbind(),
         frame,
     })
