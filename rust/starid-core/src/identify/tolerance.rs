@@ -397,26 +397,20 @@ impl Solver {
         // often a little off than far off, so the bound is shared out in two halves: one over
         // the focal lengths within [`SCALE_GRID_NEAR`] of the given one (the given one among
         // them), one over the rest (a union bound over each half).
-        let near = grid
-            .iter()
-            .filter(|f| (*f / f0 - 1.0).abs() <= SCALE_GRID_NEAR)
-            .count()
-            + 1;
+        let is_near = |f: f64| (f / f0 - 1.0).abs() <= SCALE_GRID_NEAR;
+        let near = grid.iter().filter(|&&f| is_near(f)).count() + 1;
         let far = grid.len() + 1 - near;
         let halves = if far == 0 { 1.0 } else { 2.0 };
-        let scales_at = |f: f64| {
-            let share = if (f / f0 - 1.0).abs() <= SCALE_GRID_NEAR {
-                near
-            } else {
-                far
-            };
-            halves * share as f64
-        };
+        let scales_at = |f: f64| halves * (if is_near(f) { near } else { far }) as f64;
         let needed = if magnitudes.is_some() {
             SCALE_GRID_MIN_MATCHES
         } else {
             SCALE_GRID_MIN_MATCHES_UNORDERED
         };
+        // A frame of fewer spots than a solution of the grid names has none to find there.
+        if centroids.len() < needed {
+            return Ok(None);
+        }
         let beyond_needed = centroids.len().saturating_sub(needed).max(1);
         let pairs = (SCALE_GRID_PAIRS * beyond_needed).min(SCALE_GRID_MAX_PAIRS);
         let each = IdentifyConfig {
