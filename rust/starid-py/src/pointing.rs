@@ -11,8 +11,8 @@ use starid_core::pointing::{self, PointingFit, RefineOptions};
 use starid_core::{geometry, Camera, IdentifyConfig};
 
 use crate::catalog::PyCatalog;
-use crate::outcome::py_bool;
 use crate::outcome::PyIdentification;
+use crate::outcome::{py_bool, ARCSEC_PER_RAD};
 use crate::{convert, outcome, run_core, PyIdentifyConfig};
 
 fn matrix<'py>(py: Python<'py>, m: &nalgebra::DMatrix<f64>) -> Bound<'py, numpy::PyArray2<f64>> {
@@ -204,8 +204,6 @@ pub struct PyPointingFit {
     width_px: f64,
     mirrored: bool,
 }
-
-const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
 #[pymethods]
 impl PyPointingFit {

@@ -12,7 +12,8 @@ use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
 use starid_core::{geometry, Camera, Catalog, Identification, SimFrame};
 
-const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+/// Arcseconds in a radian.
+pub(crate) const ARCSEC_PER_RAD: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 
 use starid_core::geometry::{quaternion_wxyz, unit_to_radec};
 
