@@ -201,7 +201,6 @@ impl PyBoresightSolution {
 #[pyclass(frozen, name = "PointingFit", module = "starid.pointing")]
 pub struct PyPointingFit {
     fit: PointingFit,
-    width_px: f64,
     mirrored: bool,
 }
 
@@ -248,7 +247,7 @@ impl PyPointingFit {
     /// Field of view across the width, degrees.
     #[getter]
     fn fov_deg(&self) -> f64 {
-        (2.0 * (0.5 * self.width_px / self.fit.camera.focal_length_px).atan()).to_degrees()
+        self.fit.camera.fov_rad().to_degrees()
     }
     /// Principal point ``(x, y)``, pixels.
     #[getter]
@@ -361,11 +360,7 @@ pub fn fit_pointing<'py>(
     let fit = run_core(py, move || {
         pointing::fit_pointing(&stars, &xy, width_px, height_px, focal_px, &options)
     })?;
-    Ok(PyPointingFit {
-        fit,
-        width_px,
-        mirrored,
-    })
+    Ok(PyPointingFit { fit, mirrored })
 }
 
 /// Predicted covariance of the distance solution for image offsets from the principal point.
