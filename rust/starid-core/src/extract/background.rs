@@ -3,7 +3,8 @@
 
 use super::*;
 
-/// Median of a slice (reorders it); 0 for an empty one.
+/// Median of a slice, the upper middle value of an even count; 0 for an empty one. Reorders
+/// the slice: the values before the middle are no larger than it.
 pub(super) fn median(v: &mut [f32]) -> f32 {
     if v.is_empty() {
         return 0.0;

@@ -89,7 +89,8 @@ fn median(mut values: Vec<f32>) -> Option<f32> {
     if n == 0 {
         return None;
     }
-    let (_, &mut hi, _) = values.select_nth_unstable_by(n / 2, f32::total_cmp);
+    // The upper middle one; the extraction's median leaves the smaller half before it.
+    let hi = super::background::median(&mut values);
     if n % 2 == 1 {
         return Some(hi);
     }
